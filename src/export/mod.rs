@@ -1,0 +1,63 @@
+//! Writing results: atomic file replacement and Wavefront OBJ export.
+
+use crate::mesh::Mesh;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+/// Writes `bytes` to `path` through a temporary file in the same directory and a rename, so a crash
+/// never leaves a half-written file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().ok_or_else(|| std::io::Error::other("the output path has no file name"))?;
+    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// OBJ text of a mesh: `v x y z [r g b]`, `vn` when the mesh has normals, one `o` per part.
+pub fn obj_string(mesh: &Mesh) -> String {
+    let mut s = String::with_capacity(mesh.positions.len() * 40 + mesh.triangles.len() * 24);
+    let _ = writeln!(s, "# written by vunify {}", env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(s, "# {} vertices, {} triangles", mesh.positions.len(), mesh.triangles.len());
+    for (i, p) in mesh.positions.iter().enumerate() {
+        match &mesh.colors {
+            Some(c) => {
+                let c = c[i];
+                let _ = writeln!(s, "v {} {} {} {} {} {}", p.x, p.y, p.z, c.x, c.y, c.z);
+            }
+            None => {
+                let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
+            }
+        }
+    }
+    if let Some(normals) = &mesh.normals {
+        for n in normals {
+            let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
+        }
+    }
+    for part in &mesh.parts {
+        let _ = writeln!(s, "o {}", part.name);
+        for t in &mesh.triangles[part.triangles.start as usize..part.triangles.end as usize] {
+            let [a, b, c] = t.map(|v| v + 1);
+            if mesh.normals.is_some() {
+                let _ = writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}");
+            } else {
+                let _ = writeln!(s, "f {a} {b} {c}");
+            }
+        }
+    }
+    s
+}
+
+pub fn write_obj(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
+    write_atomic(path, obj_string(mesh).as_bytes())
+}

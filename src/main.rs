@@ -1,0 +1,306 @@
+//! The `vunify` command line. Library errors are typed; here, at the application edge, they become
+//! `anyhow` messages for the user.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vunify::mesh::{self, CleanOptions};
+use vunify::simplify::Metric;
+use vunify::simplify::metric::HybridWeights;
+use vunify::vtree::{self, BuildOptions};
+
+/// The model `vunify` runs on when given no command (MIT-licensed, see assets/README.md).
+const DEFAULT_MODEL: &str = "assets/cessna.obj";
+
+#[derive(Parser)]
+#[command(name = "vunify", version, about = "View-dependent level of detail for triangle meshes.", long_about = "\
+View-dependent level of detail for triangle meshes.
+
+vunify builds a binary vertex tree of vertex merges (vunify / vsplit, which may join any two vertices
+and so change topology) from a mesh or a whole scene, stores it as a .vtree file, and takes static
+levels of detail from it. Run without a command, it builds the tree of the bundled default model and
+prints its summary.")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build the vertex tree of a mesh (.obj, .ply or .off, optionally .xz) and write it as .vtree.
+    Build(BuildArgs),
+    /// Print what a .vtree file holds.
+    Info {
+        /// The .vtree file.
+        file: PathBuf,
+        /// Also replay the build order and check every cut (slower).
+        #[arg(long)]
+        check: bool,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Take a static level of detail from a .vtree and write it as OBJ.
+    Extract(ExtractArgs),
+    /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling).
+    Measure {
+        /// The reference mesh; distances are fractions of its bounding-box diagonal.
+        original: PathBuf,
+        /// The mesh to compare with it.
+        simplified: PathBuf,
+        /// Minimum number of surface samples on each mesh (every vertex is sampled, plus points along
+        /// edges and inside faces).
+        #[arg(long, default_value_t = vunify::measure::DEFAULT_SAMPLES)]
+        samples: usize,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args)]
+struct BuildArgs {
+    /// Input mesh or scene: .obj (objects and groups become parts), .ply, .off; may end in .xz.
+    input: PathBuf,
+    /// Output .vtree file (written atomically). Default: the input's name with .vtree, in the current directory.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// How merges are priced: qem (quadric error, optimal position), qem-midpoint, edge-length, or
+    /// hybrid (seed 001: w1·squared distance + w2·feature error).
+    #[arg(long, value_enum, default_value_t = Metric::Qem)]
+    metric: Metric,
+    /// Vertices without an edge between them are merge candidates when closer than this fraction of
+    /// the bounding-box diagonal (0 turns such pairs off until separate parts must be joined).
+    #[arg(long, default_value_t = BuildOptions::default().pair_distance)]
+    pair_distance: f32,
+    /// At most this many nearest non-edge partners per vertex.
+    #[arg(long, default_value_t = BuildOptions::default().max_pairs_per_vertex)]
+    max_pairs: usize,
+    /// Seed 001's θ, degrees: an edge whose dihedral angle is below it is a sharp feature (180 = flat).
+    #[arg(long, default_value_t = BuildOptions::default().sharp_angle_deg)]
+    sharp_angle: f32,
+    /// Hybrid metric: weight w1 of the squared distance (in mean edge lengths).
+    #[arg(long, default_value_t = HybridWeights::default().distance)]
+    w_dist: f32,
+    /// Hybrid metric: weight w2 of the feature error (Tables 1 and 2).
+    #[arg(long, default_value_t = HybridWeights::default().feature)]
+    w_feature: f32,
+    /// Keep vertices with identical positions apart (welding is on by default).
+    #[arg(long)]
+    no_weld: bool,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+#[group(id = "target", required = true, multiple = false)]
+struct Target {
+    /// Keep at most this many triangles.
+    #[arg(long, group = "target")]
+    triangles: Option<u32>,
+    /// Keep this fraction of the triangles (0..1).
+    #[arg(long, group = "target")]
+    ratio: Option<f64>,
+    /// The coarsest front whose nodes' error is at most this, as a fraction of the bounding-box diagonal.
+    #[arg(long, group = "target")]
+    error: Option<f32>,
+}
+
+#[derive(Args)]
+struct ExtractArgs {
+    /// The .vtree file.
+    file: PathBuf,
+    #[command(flatten)]
+    target: Target,
+    /// Output OBJ file (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => default_job(),
+        Some(Command::Build(args)) => build(args),
+        Some(Command::Info { file, check, json }) => info(&file, check, json),
+        Some(Command::Extract(args)) => extract(args),
+        Some(Command::Measure { original, simplified, samples, json }) => measure(&original, &simplified, samples, json),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+/// Peak resident memory of this process so far (Linux `VmHWM`), in bytes.
+fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+fn default_job() -> Result<()> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let input = root.join(DEFAULT_MODEL);
+    let out_dir = root.join("out");
+    std::fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    println!("vunify: building the vertex tree of the default model {DEFAULT_MODEL}");
+    build(BuildArgs {
+        input,
+        output: Some(out_dir.join("cessna.vtree")),
+        metric: Metric::Qem,
+        pair_distance: BuildOptions::default().pair_distance,
+        max_pairs: BuildOptions::default().max_pairs_per_vertex,
+        sharp_angle: BuildOptions::default().sharp_angle_deg,
+        w_dist: HybridWeights::default().distance,
+        w_feature: HybridWeights::default().feature,
+        no_weld: false,
+        json: false,
+    })
+}
+
+fn build(args: BuildArgs) -> Result<()> {
+    if !(args.pair_distance >= 0.0 && args.pair_distance.is_finite()) {
+        bail!("--pair-distance must be a non-negative number, got {}", args.pair_distance);
+    }
+    if !(args.sharp_angle > 0.0 && args.sharp_angle <= 180.0) {
+        bail!("--sharp-angle must be in (0, 180] degrees, got {}", args.sharp_angle);
+    }
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args.input.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let stem = stem.trim_end_matches(".xz");
+        let stem = stem.rsplit_once('.').map_or(stem, |(s, _)| s);
+        PathBuf::from(format!("{stem}.vtree"))
+    });
+    let t0 = Instant::now();
+    let (mesh, cleaned) = mesh::load(&args.input, &CleanOptions { weld: !args.no_weld })?;
+    let load_secs = t0.elapsed().as_secs_f64();
+    let options = BuildOptions {
+        metric: args.metric,
+        pair_distance: args.pair_distance,
+        max_pairs_per_vertex: args.max_pairs,
+        sharp_angle_deg: args.sharp_angle,
+        hybrid: HybridWeights { distance: args.w_dist, feature: args.w_feature },
+    };
+    let bar = indicatif::ProgressBar::new(mesh.vertex_count().saturating_sub(1) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} merges ({eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message("building");
+    let (tree, stats) = vtree::build(&mesh, &options, &mut |done, _| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    vtree::write(&tree, &output).with_context(|| format!("cannot write {}", output.display()))?;
+    let peak = peak_memory_bytes();
+    if args.json {
+        let json = serde_json::json!({
+            "input": args.input, "output": output, "metric": args.metric.name(),
+            "vertices": mesh.vertex_count(), "triangles": mesh.triangle_count(), "parts": mesh.parts.len(),
+            "cleaned": cleaned, "build": stats, "load_seconds": load_secs, "peak_memory_bytes": peak,
+        });
+        println!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
+    println!("input      {}", args.input.display());
+    println!("           {} vertices, {} triangles, {} part(s)", mesh.vertex_count(), mesh.triangle_count(), mesh.parts.len());
+    println!(
+        "cleaned    {} welded, {} unused vertices dropped; {} degenerate and {} duplicate faces dropped",
+        cleaned.welded_vertices, cleaned.unused_vertices, cleaned.degenerate_faces, cleaned.duplicate_faces
+    );
+    println!("metric     {}", args.metric.name());
+    println!("tree       {} nodes ({} leaves), one root, depth {}", stats.nodes, stats.leaves, stats.depth);
+    println!(
+        "pairs      {} feature edges, {} close non-edge pairs, {} flip deferrals, {} widenings",
+        stats.feature_edges, stats.proximity_pairs, stats.flip_deferrals, stats.widenings
+    );
+    println!("time       load {load_secs:.2} s, build {:.2} s", stats.seconds);
+    if let Some(p) = peak {
+        println!("memory     peak {:.1} MiB ({:.0} bytes per input triangle)", p as f64 / 1048576.0, p as f64 / mesh.triangle_count() as f64);
+    }
+    println!("wrote      {}", output.display());
+    Ok(())
+}
+
+fn info(file: &Path, check: bool, json: bool) -> Result<()> {
+    let tree = vtree::read(file)?;
+    if check {
+        vtree::check_cut(&tree).map_err(|e| anyhow::anyhow!("{}: the build order is inconsistent: {e}", file.display()))?;
+    }
+    let root = &tree.nodes[tree.root() as usize];
+    if json {
+        let j = serde_json::json!({
+            "file": file, "leaves": tree.leaf_count, "nodes": tree.nodes.len(), "triangles": tree.triangles.len(),
+            "depth": tree.depth(), "metric": tree.metric.name(), "colors": tree.has_colors, "normals": tree.has_normals,
+            "parts": tree.parts, "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
+        });
+        println!("{}", serde_json::to_string_pretty(&j)?);
+        return Ok(());
+    }
+    println!("file       {}", file.display());
+    println!("tree       {} nodes ({} leaves), depth {}, metric {}", tree.nodes.len(), tree.leaf_count, tree.depth(), tree.metric.name());
+    println!("triangles  {}", tree.triangles.len());
+    println!("attributes colours: {}, normals: {}", tree.has_colors, tree.has_normals);
+    println!("root       error {:.4} ({:.4} % of the diagonal {:.4})", root.error, 100.0 * root.error / tree.diagonal().max(f32::MIN_POSITIVE), tree.diagonal());
+    println!("parts      {}", tree.parts.len());
+    for p in tree.parts.iter().take(20) {
+        println!("           {:>8} triangles  {}", p.triangles, p.name);
+    }
+    if tree.parts.len() > 20 {
+        println!("           ... and {} more", tree.parts.len() - 20);
+    }
+    if check {
+        println!("check      every cut of the build order is a valid mesh");
+    }
+    Ok(())
+}
+
+fn extract(args: ExtractArgs) -> Result<()> {
+    let tree = vtree::read(&args.file)?;
+    let total = tree.triangles.len() as u32;
+    let cut = match (args.target.triangles, args.target.ratio, args.target.error) {
+        (Some(n), _, _) => vtree::cut_at_triangles(&tree, n),
+        (_, Some(r), _) => {
+            if !(0.0..=1.0).contains(&r) {
+                bail!("--ratio must be between 0 and 1, got {r}");
+            }
+            vtree::cut_at_triangles(&tree, (r * total as f64).round() as u32)
+        }
+        (_, _, Some(e)) => {
+            if !(e >= 0.0) {
+                bail!("--error must be a non-negative fraction of the diagonal, got {e}");
+            }
+            vtree::cut_at_error(&tree, e * tree.diagonal())
+        }
+        _ => unreachable!("clap requires exactly one target"),
+    };
+    vunify::export::write_obj(&cut.mesh, &args.output).with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!(
+        "wrote {}: {} vertices, {} triangles (of {total}){}",
+        args.output.display(),
+        cut.mesh.vertex_count(),
+        cut.mesh.triangle_count(),
+        if cut.dropped > 0 { format!(", {} repeated triangles dropped", cut.dropped) } else { String::new() }
+    );
+    Ok(())
+}
+
+fn measure(original: &Path, simplified: &Path, samples: usize, json: bool) -> Result<()> {
+    let options = CleanOptions::default();
+    let (a, _) = mesh::load(original, &options)?;
+    let (b, _) = mesh::load(simplified, &options)?;
+    let h = vunify::measure::hausdorff(&a, &b, samples.max(1));
+    if json {
+        println!("{}", serde_json::to_string_pretty(&h)?);
+        return Ok(());
+    }
+    println!("Hausdorff distance, as % of the original's bounding-box diagonal ({:.6}):", h.diagonal);
+    println!("              {:>10} {:>10} {:>10} {:>10}", "max", "mean", "RMS", "samples");
+    for (name, s) in [("original→simp", h.forward), ("simp→original", h.backward), ("symmetric", h.symmetric)] {
+        println!("{name:<14}{:>9.4}% {:>9.4}% {:>9.4}% {:>10}", 100.0 * s.max, 100.0 * s.mean, 100.0 * s.rms, s.samples);
+    }
+    Ok(())
+}

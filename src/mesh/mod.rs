@@ -1,0 +1,180 @@
+//! Triangle meshes and scenes: the input of everything else.
+//!
+//! Pipeline position: **mesh** → simplify → vtree → measure. A [`Mesh`] is a welded, cleaned triangle soup
+//! with optional per-vertex colours and normals, split into named [`Part`]s (OBJ `o`/`g` groups) so that a
+//! whole scene is one mesh.
+
+mod clean;
+mod error;
+mod obj;
+mod off;
+mod ply;
+
+pub use clean::{CleanOptions, CleanReport, clean};
+pub use error::{InputError, Location};
+
+use glam::Vec3;
+use std::ops::Range;
+use std::path::Path;
+
+/// A named group of triangles inside a scene (an OBJ `o` or `g`, or the whole file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    pub name: String,
+    /// Range into [`Mesh::triangles`].
+    pub triangles: Range<u32>,
+}
+
+/// An indexed triangle mesh. Attribute vectors, when present, have one entry per position.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    /// Linear RGB in `[0, 1]`, e.g. from OBJ `v x y z r g b` or PLY `red green blue`.
+    pub colors: Option<Vec<Vec3>>,
+    pub normals: Option<Vec<Vec3>>,
+    pub triangles: Vec<[u32; 3]>,
+    pub parts: Vec<Part>,
+}
+
+impl Mesh {
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Axis-aligned bounds `(min, max)`; `(0, 0)` for an empty mesh.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        if self.positions.is_empty() {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in &self.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        (lo, hi)
+    }
+
+    /// Length of the bounding-box diagonal: the unit of every relative distance in vunify.
+    pub fn diagonal(&self) -> f32 {
+        let (lo, hi) = self.bounds();
+        (hi - lo).length()
+    }
+
+    /// A mesh with one part covering all triangles.
+    pub fn from_triangles(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        let parts = vec![Part { name: "mesh".into(), triangles: 0..triangles.len() as u32 }];
+        Mesh { positions, colors: None, normals: None, triangles, parts }
+    }
+
+    /// Checks the structural invariants every loader and [`clean`] guarantee.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.positions.len();
+        if let Some(c) = &self.colors {
+            if c.len() != n {
+                return Err(format!("{} colours for {n} positions", c.len()));
+            }
+        }
+        if let Some(c) = &self.normals {
+            if c.len() != n {
+                return Err(format!("{} normals for {n} positions", c.len()));
+            }
+        }
+        for (i, p) in self.positions.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(format!("position {i} is not finite: {p}"));
+            }
+        }
+        for (i, t) in self.triangles.iter().enumerate() {
+            if t.iter().any(|&v| v as usize >= n) {
+                return Err(format!("triangle {i} {t:?} indexes past {n} positions"));
+            }
+        }
+        let mut next = 0;
+        for p in &self.parts {
+            if p.triangles.start != next || p.triangles.end < p.triangles.start {
+                return Err(format!("part {:?} does not tile the triangle list", p.name));
+            }
+            next = p.triangles.end;
+        }
+        if next as usize != self.triangles.len() {
+            return Err("parts do not cover every triangle".into());
+        }
+        Ok(())
+    }
+}
+
+/// The file formats vunify reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Obj,
+    Ply,
+    Off,
+}
+
+impl Format {
+    /// From the file name: `.obj`, `.ply`, `.off`, each optionally followed by `.xz`.
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+        let name = name.strip_suffix(".xz").unwrap_or(&name);
+        match name.rsplit('.').next()? {
+            "obj" => Some(Format::Obj),
+            "ply" => Some(Format::Ply),
+            "off" => Some(Format::Off),
+            _ => None,
+        }
+    }
+}
+
+/// Parses mesh bytes in a known format. `path` is used only to name the file in errors.
+/// The result is raw: not welded or cleaned (see [`clean`]).
+pub fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh, InputError> {
+    // The parsers are written not to panic; this is a last line of defence for the third-party
+    // crates (tobj, ply-rs-bw) under them, so that no input can take the program down.
+    let result = std::panic::catch_unwind(|| match format {
+        Format::Obj => obj::parse(bytes, path),
+        Format::Ply => ply::parse(bytes, path),
+        Format::Off => off::parse(bytes, path),
+    });
+    let mesh = match result {
+        Ok(r) => r?,
+        Err(_) => return Err(InputError::whole(path, "the parser failed on this input (internal error)")),
+    };
+    if mesh.triangles.is_empty() {
+        return Err(InputError::whole(path, "the mesh has no faces"));
+    }
+    debug_assert!(mesh.check().is_ok(), "{:?}", mesh.check());
+    Ok(mesh)
+}
+
+/// Reads, parses and cleans a mesh file (`.obj`, `.ply`, `.off`, optionally `.xz`-compressed).
+pub fn load(path: &Path, options: &CleanOptions) -> Result<(Mesh, CleanReport), InputError> {
+    let format = Format::from_path(path).ok_or_else(|| {
+        InputError::whole(path, "unknown mesh format: expected a .obj, .ply or .off file (optionally .xz)")
+    })?;
+    let bytes = read_maybe_xz(path)?;
+    let raw = parse(&bytes, format, path)?;
+    let (mesh, report) = clean(raw, options);
+    if mesh.triangles.is_empty() {
+        return Err(InputError::whole(path, "every face is degenerate: nothing is left to build"));
+    }
+    Ok((mesh, report))
+}
+
+fn read_maybe_xz(path: &Path) -> Result<Vec<u8>, InputError> {
+    let bytes = std::fs::read(path).map_err(|e| InputError::whole(path, format!("cannot read: {e}")))?;
+    let is_xz = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xz"));
+    if !is_xz {
+        return Ok(bytes);
+    }
+    use std::io::Read;
+    let mut out = Vec::with_capacity(bytes.len() * 6);
+    xz2::read::XzDecoder::new(&bytes[..])
+        .read_to_end(&mut out)
+        .map_err(|e| InputError::whole(path, format!("cannot decompress xz data: {e}")))?;
+    Ok(out)
+}

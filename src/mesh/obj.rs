@@ -1,0 +1,165 @@
+//! Wavefront OBJ through tobj.
+//!
+//! tobj does the parsing proper (objects and groups, polygon triangulation, `v x y z r g b` colours), but
+//! its errors carry no line number. So a cheap validating pass runs first and reports the first bad line
+//! exactly — malformed numbers, non-finite coordinates, face indices out of range — and tobj only ever
+//! sees records that pass it.
+
+use super::{InputError, Mesh, Part};
+use glam::Vec3;
+use std::path::Path;
+
+pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
+    validate(bytes, path)?;
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
+    // Materials are irrelevant to geometry, and a missing .mtl (beetle.obj names one) is not an error.
+    let loaded = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    });
+    let (models, _materials) =
+        loaded.map_err(|e| InputError::whole(path, format!("OBJ parse error: {e}")))?;
+
+    let has_colors = models.iter().any(|m| !m.mesh.vertex_color.is_empty());
+    let has_normals = models.iter().any(|m| !m.mesh.normals.is_empty());
+    let mut mesh = Mesh::default();
+    let mut colors = Vec::new();
+    let mut normals = Vec::new();
+    for model in &models {
+        let m = &model.mesh;
+        let base = mesh.positions.len() as u32;
+        let count = m.positions.len() / 3;
+        mesh.positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        if has_colors {
+            if m.vertex_color.len() == m.positions.len() {
+                colors.extend(m.vertex_color.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+            } else {
+                colors.extend(std::iter::repeat_n(Vec3::ONE, count));
+            }
+        }
+        if has_normals {
+            let first = normals.len();
+            normals.extend(std::iter::repeat_n(Vec3::ZERO, count));
+            if m.normal_indices.len() == m.indices.len() {
+                for (&vi, &ni) in m.indices.iter().zip(&m.normal_indices) {
+                    let n = m.normals.get(3 * ni as usize..3 * ni as usize + 3);
+                    if let (Some(n), Some(slot)) = (n, normals.get_mut(first + vi as usize)) {
+                        if *slot == Vec3::ZERO {
+                            *slot = Vec3::new(n[0], n[1], n[2]);
+                        }
+                    }
+                }
+            }
+        }
+        let start = mesh.triangles.len() as u32;
+        for t in m.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i as usize >= count) {
+                return Err(InputError::whole(path, "OBJ face index out of range after triangulation"));
+            }
+            mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
+        }
+        let end = mesh.triangles.len() as u32;
+        if end > start {
+            mesh.parts.push(Part { name: model.name.clone(), triangles: start..end });
+        }
+    }
+    mesh.colors = has_colors.then_some(colors);
+    mesh.normals = has_normals.then_some(normals);
+    Ok(mesh)
+}
+
+/// Checks every `v`, `vn`, `vt` and `f` record; returns the first problem with its line number.
+fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+        InputError::line(path, line, "not valid UTF-8 text: is this really an OBJ file?")
+    })?;
+    let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
+    // Positive indices may refer forward; they are checked against the final counts at the end.
+    let mut max_ref: [(usize, usize); 3] = [(0, 0); 3];
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let mut tokens = raw.split_whitespace();
+        let Some(keyword) = tokens.next() else { continue };
+        let rest: Vec<&str> = tokens.collect();
+        let floats = |min: usize, max: usize, what: &str| -> Result<(), InputError> {
+            if rest.len() < min || rest.len() > max {
+                let want = if min == max { format!("{min}") } else { format!("{min} to {max}") };
+                return Err(InputError::line(path, line, format!("{what}: expected {want} numbers, found {}", rest.len())));
+            }
+            for tok in &rest {
+                match tok.parse::<f32>() {
+                    Ok(x) if x.is_finite() => {}
+                    Ok(_) => return Err(InputError::line(path, line, format!("{what}: coordinate {tok:?} is not finite"))),
+                    Err(_) => return Err(InputError::line(path, line, format!("{what}: {tok:?} is not a number"))),
+                }
+            }
+            Ok(())
+        };
+        match keyword {
+            "v" => {
+                floats(3, 7, "vertex")?;
+                if rest.len() == 5 {
+                    return Err(InputError::line(path, line, "vertex: expected x y z [w] or x y z r g b, found 5 numbers"));
+                }
+                nv += 1;
+            }
+            "vt" => {
+                floats(1, 3, "texture coordinate")?;
+                nvt += 1;
+            }
+            "vn" => {
+                floats(3, 3, "normal")?;
+                nvn += 1;
+            }
+            "f" => {
+                if rest.len() < 3 {
+                    return Err(InputError::line(path, line, format!("face: needs at least 3 vertices, found {}", rest.len())));
+                }
+                for tok in &rest {
+                    let parts: Vec<&str> = tok.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
+                        return Err(InputError::line(path, line, format!("face: malformed vertex reference {tok:?}")));
+                    }
+                    let counts = [nv, nvt, nvn];
+                    for (k, part) in parts.iter().enumerate() {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let idx: i64 = part.parse().map_err(|_| {
+                            InputError::line(path, line, format!("face: index {part:?} in {tok:?} is not an integer"))
+                        })?;
+                        let kind = ["vertex", "texture coordinate", "normal"][k];
+                        if idx == 0 {
+                            return Err(InputError::line(path, line, format!("face: {kind} index 0 (OBJ indices start at 1)")));
+                        }
+                        if idx < 0 {
+                            if idx.unsigned_abs() as usize > counts[k] {
+                                return Err(InputError::line(path, line, format!(
+                                    "face: relative {kind} index {idx} reaches before the first of {} defined so far",
+                                    counts[k]
+                                )));
+                            }
+                        } else if idx as usize > max_ref[k].0 {
+                            max_ref[k] = (idx as usize, line);
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    for (k, total) in [nv, nvt, nvn].into_iter().enumerate() {
+        let (idx, line) = max_ref[k];
+        if idx > total {
+            let kind = ["vertex", "texture coordinate", "normal"][k];
+            return Err(InputError::line(path, line, format!("face: {kind} index {idx} is out of range (the file has {total})")));
+        }
+    }
+    Ok(())
+}

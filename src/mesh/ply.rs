@@ -1,0 +1,192 @@
+//! Stanford PLY (ASCII, binary little- and big-endian) through ply-rs-bw.
+//!
+//! Before the crate sees the payload, the header's element counts are checked against the file's size,
+//! so a truncated binary file is reported with the byte offset where its data runs out, and no count
+//! from the header is trusted for an allocation.
+
+use super::{InputError, Location, Mesh, Part};
+use glam::Vec3;
+use ply_rs_bw::parser::Parser;
+use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property, PropertyType, ScalarType};
+use std::path::Path;
+
+fn scalar_size(t: ScalarType) -> u64 {
+    match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
+/// Bytes one record of `e` takes at least, and whether every record takes exactly that (no lists).
+fn record_size(e: &ElementDef) -> (u64, bool) {
+    let mut size = 0;
+    let mut fixed = true;
+    for p in e.properties.values() {
+        match &p.data_type {
+            PropertyType::Scalar(t) => size += scalar_size(t.clone()),
+            PropertyType::List(count, _) => {
+                size += scalar_size(count.clone());
+                fixed = false;
+            }
+        }
+    }
+    (size, fixed)
+}
+
+fn as_f64(p: &Property) -> Option<f64> {
+    Some(match *p {
+        Property::Char(x) => x as f64,
+        Property::UChar(x) => x as f64,
+        Property::Short(x) => x as f64,
+        Property::UShort(x) => x as f64,
+        Property::Int(x) => x as f64,
+        Property::UInt(x) => x as f64,
+        Property::Float(x) => x as f64,
+        Property::Double(x) => x,
+        _ => return None,
+    })
+}
+
+fn as_indices(p: &Property) -> Option<Vec<i64>> {
+    Some(match p {
+        Property::ListChar(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListUChar(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListShort(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListUShort(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListInt(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListUInt(v) => v.iter().map(|&x| x as i64).collect(),
+        _ => return None,
+    })
+}
+
+fn find_header_end(bytes: &[u8]) -> Option<usize> {
+    let key = b"end_header";
+    let at = bytes.windows(key.len()).position(|w| w == key)?;
+    let nl = bytes[at..].iter().position(|&b| b == b'\n')?;
+    Some(at + nl + 1)
+}
+
+pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
+    if !bytes.starts_with(b"ply") {
+        return Err(InputError::byte(path, 0, "missing the 'ply' magic line"));
+    }
+    let header_len = find_header_end(bytes).ok_or_else(|| InputError::whole(path, "no 'end_header' line: the header is truncated"))?;
+    let header_lines = bytes[..header_len].iter().filter(|&&b| b == b'\n').count();
+    let parser = Parser::<DefaultElement>::new();
+    let header = parser.read_ply_header(&mut &bytes[..header_len]).map_err(|e| match e.line() {
+        Some(line) => InputError::line(path, line, format!("bad PLY header: {e}")),
+        None => InputError::whole(path, format!("bad PLY header: {e}")),
+    })?;
+
+    let elements: Vec<&ElementDef> = header.elements.values().collect();
+    let binary = header.encoding != Encoding::Ascii;
+    let payload_len = (bytes.len() - header_len) as u64;
+    // Where record k of element e starts, when it can be known without reading (None for variable records).
+    let mut starts = Vec::with_capacity(elements.len());
+    let mut offset = Some(0u64);
+    let mut line = header_lines as u64;
+    let mut min_total = 0u64;
+    for e in &elements {
+        let (size, fixed) = record_size(e);
+        starts.push(if binary { offset.map(|o| (o, size, fixed)) } else { Some((line, 1, true)) });
+        let count = e.count as u64;
+        min_total = min_total.saturating_add(if binary { count.saturating_mul(size) } else { count.saturating_mul(2) });
+        if min_total > payload_len {
+            let at = header_len as u64 + payload_len;
+            let what = if binary { format!("at least {min_total} bytes") } else { format!("{count} more lines") };
+            return Err(InputError::byte(path, at, format!(
+                "truncated file: element '{}' ({count} records) needs {what} of payload after the {header_len}-byte header, the file ends here",
+                e.name
+            )));
+        }
+        offset = if fixed { offset.map(|o| o + count * size) } else { None };
+        line += count;
+    }
+    let locate = |element: usize, k: usize| -> Location {
+        match starts[element] {
+            Some((base, _, true)) if !binary => Location::Line((base + k as u64 + 1) as usize),
+            Some((base, size, true)) => Location::Byte(header_len as u64 + base + k as u64 * size),
+            _ => Location::Whole,
+        }
+    };
+
+    let ply = parser.read_ply(&mut &bytes[..]).map_err(|e| match (e.line(), binary) {
+        (Some(line), false) => InputError::line(path, line, format!("bad PLY data: {e}")),
+        _ => InputError::byte(path, header_len as u64, format!("bad PLY data in the payload that starts here: {e}")),
+    })?;
+
+    let vi = elements.iter().position(|e| e.name == "vertex").ok_or_else(|| InputError::whole(path, "no 'vertex' element"))?;
+    let fi = elements.iter().position(|e| e.name == "face").ok_or_else(|| InputError::whole(path, "no 'face' element"))?;
+    let empty = Vec::new();
+    let verts = ply.payload.get("vertex").unwrap_or(&empty);
+    let faces = ply.payload.get("face").unwrap_or(&empty);
+
+    let bad = |element: usize, k: usize, msg: String| {
+        let loc = locate(element, k);
+        let what = if elements[element].name == "vertex" { "vertex" } else { "face" };
+        let msg = match loc {
+            Location::Whole => format!("{what} record {k}: {msg}"),
+            _ => format!("{what}: {msg}"),
+        };
+        InputError::new(path, loc, msg)
+    };
+    let vdef = elements[vi];
+    let has = |name: &str| vdef.properties.contains_key(name);
+    let has_colors = has("red") && has("green") && has("blue");
+    let has_normals = has("nx") && has("ny") && has("nz");
+    let color_scale = match vdef.properties.get("red").map(|p| &p.data_type) {
+        Some(PropertyType::Scalar(ScalarType::Float | ScalarType::Double)) => 1.0,
+        _ => 1.0 / 255.0,
+    };
+
+    let mut positions = Vec::with_capacity(verts.len());
+    let mut colors = Vec::new();
+    let mut normals = Vec::new();
+    let get3 = |v: &DefaultElement, k: usize, names: [&str; 3]| -> Result<Vec3, InputError> {
+        let mut out = [0f32; 3];
+        for (slot, name) in out.iter_mut().zip(names) {
+            let x = v.get(name).and_then(as_f64).ok_or_else(|| bad(vi, k, format!("property '{name}' missing or not a number")))?;
+            if !x.is_finite() {
+                return Err(bad(vi, k, format!("'{name}' = {x} is not finite")));
+            }
+            *slot = x as f32;
+        }
+        Ok(Vec3::from_array(out))
+    };
+    for (k, v) in verts.iter().enumerate() {
+        positions.push(get3(v, k, ["x", "y", "z"])?);
+        if has_colors {
+            colors.push(get3(v, k, ["red", "green", "blue"])? * color_scale);
+        }
+        if has_normals {
+            normals.push(get3(v, k, ["nx", "ny", "nz"])?);
+        }
+    }
+    let mut triangles = Vec::with_capacity(faces.len());
+    for (k, f) in faces.iter().enumerate() {
+        let idx = f
+            .get("vertex_indices")
+            .or_else(|| f.get("vertex_index"))
+            .and_then(as_indices)
+            .ok_or_else(|| bad(fi, k, "no integer list 'vertex_indices'".into()))?;
+        if idx.len() < 3 {
+            return Err(bad(fi, k, format!("a face needs at least 3 vertices, found {}", idx.len())));
+        }
+        if let Some(&i) = idx.iter().find(|&&i| i < 0 || i as usize >= positions.len()) {
+            return Err(bad(fi, k, format!("vertex index {i} is out of range (the file has {} vertices)", positions.len())));
+        }
+        for j in 1..idx.len() - 1 {
+            triangles.push([idx[0] as u32, idx[j] as u32, idx[j + 1] as u32]);
+        }
+    }
+    let parts = vec![Part { name: "mesh".into(), triangles: 0..triangles.len() as u32 }];
+    Ok(Mesh {
+        positions,
+        colors: has_colors.then_some(colors),
+        normals: has_normals.then_some(normals),
+        triangles,
+        parts,
+    })
+}

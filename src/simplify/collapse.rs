@@ -1,0 +1,304 @@
+//! The working mesh of a simplification: the paper's current vertex and triangle sets and the merge
+//! operation on them (seed 001 §2.3, steps 3–6).
+//!
+//! Vertices live in *slots*, one per input vertex. `unify(a, b)` merges slot `b` into slot `a` (any two
+//! slots: no edge is needed), so a slot stands for a growing cluster; `find` is the paper's map
+//! `g(v)` over the table `VI` (eq. 4), with path compression.
+
+use glam::Vec3;
+
+/// Marks an entry of [`Collapser::extras`] as a loose edge (left behind by a vanished triangle) rather
+/// than a proximity pair.
+const LOOSE_EDGE: u32 = 1 << 31;
+const SLOT_MASK: u32 = !LOOSE_EDGE;
+const ALIVE: u32 = u32::MAX;
+
+/// Why a triangle vanished in a merge (seed 001 Fig. 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Vanish {
+    /// Two of its corners became one vertex.
+    Degenerate,
+    /// It now has the same three corners as a surviving triangle.
+    Coincident,
+}
+
+pub struct Collapser {
+    /// Current position of each slot.
+    pub positions: Vec<Vec3>,
+    /// Current slot corners of each triangle (meaningless once it has vanished).
+    corners: Vec<[u32; 3]>,
+    alive_face: Vec<bool>,
+    /// Triangles around each live slot; may hold vanished ones until the slot is next touched.
+    faces: Vec<Vec<u32>>,
+    /// Other partners of each slot: proximity pairs and loose edges, possibly naming merged slots.
+    extras: Vec<Vec<u32>>,
+    /// `VI`: the slot a merged slot went into, or `ALIVE`.
+    merged_into: Vec<u32>,
+    live: usize,
+}
+
+/// A partner of a slot, and whether an edge joins them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Neighbor {
+    pub slot: u32,
+    pub edge: bool,
+}
+
+impl Collapser {
+    pub fn new(positions: Vec<Vec3>, triangles: &[[u32; 3]]) -> Collapser {
+        let n = positions.len();
+        let mut degree = vec![0u32; n];
+        for t in triangles {
+            for &v in t {
+                degree[v as usize] += 1;
+            }
+        }
+        let mut faces: Vec<Vec<u32>> = degree.iter().map(|&d| Vec::with_capacity(d as usize)).collect();
+        for (f, t) in triangles.iter().enumerate() {
+            for &v in t {
+                faces[v as usize].push(f as u32);
+            }
+        }
+        Collapser {
+            positions,
+            corners: triangles.to_vec(),
+            alive_face: vec![true; triangles.len()],
+            faces,
+            extras: vec![Vec::new(); n],
+            merged_into: vec![ALIVE; n],
+            live: n,
+        }
+    }
+
+    pub fn live_count(&self) -> usize {
+        self.live
+    }
+
+    pub fn is_live(&self, slot: u32) -> bool {
+        self.merged_into[slot as usize] == ALIVE
+    }
+
+    pub fn live_slots(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.merged_into.len() as u32).filter(|&s| self.is_live(s))
+    }
+
+    /// `g(v)`: the live slot that slot `v` has been merged into.
+    pub fn find(&mut self, v: u32) -> u32 {
+        let mut root = v;
+        while self.merged_into[root as usize] != ALIVE {
+            root = self.merged_into[root as usize];
+        }
+        let mut x = v;
+        while self.merged_into[x as usize] != ALIVE {
+            let next = self.merged_into[x as usize];
+            self.merged_into[x as usize] = root;
+            x = next;
+        }
+        root
+    }
+
+    /// Records a proximity pair (no edge between them) as a merge candidate.
+    pub fn add_proximity_pair(&mut self, a: u32, b: u32) {
+        self.extras[a as usize].push(b);
+        self.extras[b as usize].push(a);
+    }
+
+    /// The live triangles around a live slot, as current slot corners.
+    pub fn faces_of(&self, slot: u32) -> impl Iterator<Item = (u32, [u32; 3])> + Clone + '_ {
+        self.faces[slot as usize].iter().filter(|&&f| self.alive_face[f as usize]).map(|&f| (f, self.corners[f as usize]))
+    }
+
+    /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once, in slot order.
+    pub fn neighbors(&mut self, slot: u32, out: &mut Vec<Neighbor>) {
+        out.clear();
+        for (_, c) in self.faces_of(slot) {
+            for v in c {
+                if v != slot {
+                    out.push(Neighbor { slot: v, edge: true });
+                }
+            }
+        }
+        for i in 0..self.extras[slot as usize].len() {
+            let e = self.extras[slot as usize][i];
+            let v = self.find(e & SLOT_MASK);
+            if v != slot {
+                out.push(Neighbor { slot: v, edge: e & LOOSE_EDGE != 0 });
+            }
+        }
+        // Edges sort before non-edges of the same slot, so dedup keeps the edge.
+        out.sort_unstable_by_key(|n| (n.slot, !n.edge));
+        out.dedup_by_key(|n| n.slot);
+    }
+
+    /// `vunify`: merges live slot `b` into live slot `a`, which moves to `position`. Triangles that
+    /// vanish are appended to `removed` with the reason. Returns nothing else: the caller reads the
+    /// new neighbourhood with [`Collapser::neighbors`].
+    pub fn unify(&mut self, a: u32, b: u32, position: Vec3, removed: &mut Vec<(u32, Vanish)>) {
+        debug_assert!(a != b && self.is_live(a) && self.is_live(b));
+        let (ai, bi) = (a as usize, b as usize);
+        self.positions[ai] = position;
+        let mut around_a = std::mem::take(&mut self.faces[ai]);
+        around_a.retain(|&f| self.alive_face[f as usize]);
+        let around_b = std::mem::take(&mut self.faces[bi]);
+        for f in around_b {
+            let fi = f as usize;
+            if !self.alive_face[fi] {
+                continue;
+            }
+            let c = &mut self.corners[fi];
+            if c.contains(&a) {
+                // Degenerate (Fig. 3a). Its third corner keeps an edge to the merged vertex, which must
+                // stay a candidate even if no other triangle carries that edge.
+                self.alive_face[fi] = false;
+                removed.push((f, Vanish::Degenerate));
+                let other = c.iter().copied().find(|&v| v != a && v != b).expect("a triangle has 3 distinct corners");
+                self.extras[ai].push(other | LOOSE_EDGE);
+                self.extras[other as usize].push(a | LOOSE_EDGE);
+                continue;
+            }
+            for v in c.iter_mut() {
+                if *v == b {
+                    *v = a;
+                }
+            }
+            around_a.push(f);
+        }
+        // Coincident triangles (Fig. 3b): any new duplicate has the merged vertex as a corner, so only
+        // the triangles around `a` need comparing. The one that was around `a` before survives.
+        let mut keys: Vec<([u32; 3], usize)> = around_a
+            .iter()
+            .enumerate()
+            .map(|(i, &f)| {
+                let mut k = self.corners[f as usize];
+                k.sort_unstable();
+                (k, i)
+            })
+            .collect();
+        keys.sort_unstable();
+        for w in keys.windows(2) {
+            if w[0].0 == w[1].0 {
+                let f = around_a[w[1].1];
+                self.alive_face[f as usize] = false;
+                removed.push((f, Vanish::Coincident));
+            }
+        }
+        around_a.retain(|&f| self.alive_face[f as usize]);
+        self.faces[ai] = around_a;
+
+        let moved = std::mem::take(&mut self.extras[bi]);
+        self.extras[ai].extend(moved);
+        self.merged_into[bi] = a;
+        self.live -= 1;
+        // Canonical extras: live slots, no self, one entry per partner (edge wins).
+        let mut extras = std::mem::take(&mut self.extras[ai]);
+        for e in &mut extras {
+            *e = self.find(*e & SLOT_MASK) | (*e & LOOSE_EDGE);
+        }
+        extras.retain(|&e| e & SLOT_MASK != a);
+        extras.sort_unstable_by_key(|&e| (e & SLOT_MASK, e & LOOSE_EDGE == 0));
+        extras.dedup_by_key(|e| *e & SLOT_MASK);
+        self.extras[ai] = extras;
+    }
+
+    /// Would moving slots `a` and `b` to `p` turn any surviving triangle around them upside down?
+    pub fn flips(&self, a: u32, b: u32, p: Vec3) -> bool {
+        for s in [a, b] {
+            for (_, c) in self.faces_of(s) {
+                if c.contains(&a) && c.contains(&b) {
+                    continue; // vanishes
+                }
+                let q = c.map(|v| self.positions[v as usize]);
+                let before = (q[1] - q[0]).cross(q[2] - q[0]);
+                let moved = c.map(|v| if v == a || v == b { p } else { self.positions[v as usize] });
+                let after = (moved[1] - moved[0]).cross(moved[2] - moved[0]);
+                if before.dot(after) < 0.0 {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Seed 001 Fig. 2: a tetrahedron beside a separate triangle.
+    /// ```text
+    ///        3                  6
+    ///       /|\                / \
+    ///      / | \              /   \
+    ///     0--|--2            4-----5
+    ///      \ | /
+    ///       \|/      tetrahedron 0 1 2 3 (faces 0-3), triangle 4 5 6 (face 4)
+    ///        1
+    /// ```
+    /// `vunify(2, 3)` collapses the tetrahedron to the triangle 0 1 2: faces 0-2-3 and 1-2-3 degenerate,
+    /// face 0-1-3 becomes 0-1-2, coincident with face 0-1-2. So 1 vertex, 3 edges (2-3 vanishes, 0-3
+    /// and 1-3 fold onto 0-2 and 1-2) and 3 triangles vanish. The paper counts 4 triangles and 4 edges
+    /// for its figure; with a triangle left over, as the paper says there is, 3 is the count that holds.
+    #[test]
+    fn fig2_tetrahedron_collapses_to_a_triangle() {
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(5.0, 0.0, 0.0),
+            Vec3::new(4.5, 0.0, 1.0),
+        ];
+        let tris = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]];
+        let mut c = Collapser::new(p, &tris);
+        let mut removed = Vec::new();
+        c.unify(2, 3, Vec3::new(1.5, 0.0, 0.5), &mut removed);
+        removed.sort_unstable_by_key(|r| r.0);
+        assert_eq!(removed, vec![(1, Vanish::Coincident), (2, Vanish::Degenerate), (3, Vanish::Degenerate)]);
+        assert_eq!(c.live_count(), 6);
+        let left: Vec<_> = (0..7).filter(|&s| c.is_live(s)).flat_map(|s| c.faces_of(s).map(|f| f.0).collect::<Vec<_>>()).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+        assert_eq!(left, vec![0, 4]);
+        let mut n = Vec::new();
+        c.neighbors(2, &mut n);
+        assert_eq!(n, vec![Neighbor { slot: 0, edge: true }, Neighbor { slot: 1, edge: true }]);
+        // Vertex 3 was merged into 2: g(3) = 2.
+        assert_eq!(c.find(3), 2);
+    }
+
+    /// Merging across a gap: vertex 2 of one triangle with vertex 3 of another (no edge) joins the two
+    /// parts at one vertex, and no triangle vanishes.
+    /// ```text
+    ///   1        4             1     4
+    ///   | \    / |             | \ / |
+    ///   0--2  3--5     →       0--2--5
+    /// ```
+    #[test]
+    fn merge_without_an_edge_changes_topology() {
+        let p = vec![Vec3::ZERO, Vec3::Y, Vec3::X, Vec3::X * 1.1, Vec3::new(2.0, 1.0, 0.0), Vec3::X * 2.0];
+        let mut c = Collapser::new(p, &[[0, 2, 1], [3, 5, 4]]);
+        c.add_proximity_pair(2, 3);
+        let mut n = Vec::new();
+        c.neighbors(2, &mut n);
+        assert_eq!(n[2], Neighbor { slot: 3, edge: false });
+        let mut removed = Vec::new();
+        c.unify(2, 3, Vec3::X * 1.05, &mut removed);
+        assert!(removed.is_empty());
+        c.neighbors(2, &mut n);
+        assert_eq!(n.iter().map(|n| n.slot).collect::<Vec<_>>(), vec![0, 1, 4, 5]);
+        assert!(n.iter().all(|n| n.edge));
+    }
+
+    #[test]
+    fn a_degenerate_triangle_leaves_a_loose_edge() {
+        // One triangle; merging 0 and 1 leaves the segment 0-2, still a candidate edge.
+        let mut c = Collapser::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], &[[0, 1, 2]]);
+        let mut removed = Vec::new();
+        c.unify(0, 1, Vec3::ZERO, &mut removed);
+        assert_eq!(removed, vec![(0, Vanish::Degenerate)]);
+        let mut n = Vec::new();
+        c.neighbors(0, &mut n);
+        assert_eq!(n, vec![Neighbor { slot: 2, edge: true }]);
+        c.neighbors(2, &mut n);
+        assert_eq!(n, vec![Neighbor { slot: 0, edge: true }]);
+    }
+}

@@ -1,0 +1,122 @@
+//! What a merge costs and where the merged vertex goes: the four metrics `--metric` chooses from.
+
+use super::features::{CREASE_WEIGHT, DART_WEIGHT};
+use super::quadric::Quadric;
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+pub enum Metric {
+    /// Garland–Heckbert quadrics, vertex at the quadric's optimum (seed 003, method 3).
+    #[default]
+    Qem,
+    /// Quadric cost, vertex at the midpoint (seed 003, method 2).
+    QemMidpoint,
+    /// Cost = squared edge length, vertex at the midpoint (seed 003, method 1).
+    EdgeLength,
+    /// Seed 001 eq. 2: w1·E_dist + w2·E_feature with Tables 1 and 2.
+    Hybrid,
+}
+
+impl Metric {
+    pub fn code(self) -> u32 {
+        self as u32
+    }
+    pub fn from_code(code: u32) -> Option<Metric> {
+        [Metric::Qem, Metric::QemMidpoint, Metric::EdgeLength, Metric::Hybrid].get(code as usize).copied()
+    }
+    pub fn name(self) -> &'static str {
+        ["qem", "qem-midpoint", "edge-length", "hybrid"][self as usize]
+    }
+}
+
+/// Table 2: pair weight by how the two vertices are connected.
+pub const SMOOTH_EDGE_PAIR: f32 = 0.0;
+pub const FEATURE_EDGE_PAIR: f32 = 0.5;
+pub const NO_EDGE_PAIR: f32 = 10.0;
+
+/// The optimum may not lie farther from the pair's midpoint than this many pair lengths: beyond, the
+/// system is nearly singular in some direction and the "optimum" is numerical noise (meshoptimizer and
+/// most QEM codes clamp similarly).
+const PLACEMENT_REACH: f64 = 2.0;
+
+/// Hybrid-metric weights (seed 001 eq. 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HybridWeights {
+    /// w1, on the squared distance in units of the input's mean edge length.
+    pub distance: f32,
+    /// w2, on the feature term.
+    pub feature: f32,
+}
+
+impl Default for HybridWeights {
+    fn default() -> Self {
+        HybridWeights { distance: 1.0, feature: 1.0 }
+    }
+}
+
+/// A priced merge.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    /// What the queue is ordered by.
+    pub cost: f64,
+    pub position: Vec3,
+    /// Geometric error estimate of the merged vertex (object-space length): the root-mean-square
+    /// distance to the planes it stands for, and for a merge across a gap at least half the gap.
+    pub error: f64,
+}
+
+pub struct Pricing<'a> {
+    pub metric: Metric,
+    pub hybrid: HybridWeights,
+    pub mean_edge_length: f32,
+    pub vertex_weight: &'a [f32],
+}
+
+impl Pricing<'_> {
+    pub fn price(&self, pa: Vec3, qa: &Quadric, a: u32, pb: Vec3, qb: &Quadric, b: u32, edge: bool) -> Candidate {
+        let q = *qa + *qb;
+        let (da, db) = (pa.as_dvec3(), pb.as_dvec3());
+        let mid = 0.5 * (da + db);
+        let gap2 = da.distance_squared(db);
+        // A merge without an edge pulls two separate pieces of surface together: each moves by at least
+        // half the gap, which the planes of two parallel sheets cannot see.
+        let no_edge = if edge { 0.0 } else { 0.25 * gap2 };
+        let (position, cost) = match self.metric {
+            Metric::Qem => {
+                let reach = PLACEMENT_REACH * gap2.sqrt();
+                let best = match q.optimum() {
+                    Some(v) if v.distance(mid) <= reach.max(f64::EPSILON) => v,
+                    // Ill-conditioned: the best of the two ends and the midpoint.
+                    _ => [da, db, mid].into_iter().min_by(|x, y| q.eval(*x).total_cmp(&q.eval(*y))).unwrap_or(mid),
+                };
+                (best, q.error(best) + no_edge)
+            }
+            Metric::QemMidpoint => (mid, q.error(mid) + no_edge),
+            Metric::EdgeLength => (mid, gap2 + no_edge),
+            Metric::Hybrid => {
+                let (wa, wb) = (self.vertex_weight[a as usize], self.vertex_weight[b as usize]);
+                // Keep the more featured vertex where it is (a corner stays a corner).
+                let position = if wa > wb { da } else if wb > wa { db } else { mid };
+                let pair = if !edge {
+                    NO_EDGE_PAIR
+                } else if wa >= DART_WEIGHT && wb >= DART_WEIGHT {
+                    FEATURE_EDGE_PAIR
+                } else {
+                    SMOOTH_EDGE_PAIR
+                };
+                let unit = (self.mean_edge_length as f64).max(f64::MIN_POSITIVE);
+                let e_dist = gap2 / (unit * unit);
+                let e_feature = (wa + wb + pair) as f64;
+                (position, self.hybrid.distance as f64 * e_dist + self.hybrid.feature as f64 * e_feature)
+            }
+        };
+        let error = q.error(position).sqrt().max(if edge { 0.0 } else { 0.5 * gap2.sqrt() });
+        Candidate { cost, position: position.as_vec3(), error }
+    }
+}
+
+/// The merged vertex's Table 1 weight: a feature survives a merge.
+pub fn merged_weight(a: f32, b: f32) -> f32 {
+    a.max(b).max(if a >= DART_WEIGHT && b >= DART_WEIGHT { CREASE_WEIGHT } else { 0.0 })
+}
+

@@ -1,0 +1,149 @@
+//! Garland–Heckbert quadric error metric (seed 003; Garland & Heckbert 1997).
+//!
+//! `Q = Σ w_i p_i p_iᵀ` over planes `p_i = (n, d)` with `n·x + d = 0`; the cost of a position `v` is
+//! `vᵀ Q v` in homogeneous coordinates. Kept in `f64`: optimal placement solves a 3×3 system whose
+//! matrix is a sum of outer products and loses precision fast in `f32` far from the origin.
+
+use glam::{DVec3, Vec3};
+use std::ops::{Add, AddAssign};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Quadric {
+    // Symmetric 3×3 part A, linear part b, constant c: Q(v) = vᵀAv + 2 bᵀv + c.
+    a00: f64,
+    a01: f64,
+    a02: f64,
+    a11: f64,
+    a12: f64,
+    a22: f64,
+    b: [f64; 3],
+    c: f64,
+    /// Sum of the plane weights, to turn a cost into a mean squared distance.
+    pub weight: f64,
+}
+
+/// Below this, `|det A| / scale³` is treated as singular: the planes do not pin down a point (a flat or
+/// cylindrical region), and the solution would run off along the free direction.
+const SINGULAR_DET: f64 = 1e-9;
+
+impl Quadric {
+    /// The quadric of the plane with unit normal `n` through `point`, with weight `w`.
+    pub fn from_plane(n: DVec3, point: DVec3, w: f64) -> Quadric {
+        let d = -n.dot(point);
+        Quadric {
+            a00: w * n.x * n.x,
+            a01: w * n.x * n.y,
+            a02: w * n.x * n.z,
+            a11: w * n.y * n.y,
+            a12: w * n.y * n.z,
+            a22: w * n.z * n.z,
+            b: [w * n.x * d, w * n.y * d, w * n.z * d],
+            c: w * d * d,
+            weight: w,
+        }
+    }
+
+    /// Area-weighted quadric of a triangle's plane; zero for a degenerate triangle.
+    pub fn from_triangle(p0: Vec3, p1: Vec3, p2: Vec3) -> Quadric {
+        let (p0, p1, p2) = (p0.as_dvec3(), p1.as_dvec3(), p2.as_dvec3());
+        let cross = (p1 - p0).cross(p2 - p0);
+        let len = cross.length();
+        if len <= 0.0 || !len.is_finite() {
+            return Quadric::default();
+        }
+        Quadric::from_plane(cross / len, p0, 0.5 * len)
+    }
+
+    /// `vᵀ Q v`, clamped at zero (rounding can make it slightly negative).
+    pub fn eval(&self, v: DVec3) -> f64 {
+        let av = DVec3::new(
+            self.a00 * v.x + self.a01 * v.y + self.a02 * v.z,
+            self.a01 * v.x + self.a11 * v.y + self.a12 * v.z,
+            self.a02 * v.x + self.a12 * v.y + self.a22 * v.z,
+        );
+        let b = DVec3::from_array(self.b);
+        (v.dot(av) + 2.0 * b.dot(v) + self.c).max(0.0)
+    }
+
+    /// Mean squared distance to the planes: `vᵀQv / Σw`. This is what queues are ordered by, so a
+    /// region's size does not by itself make its merges expensive.
+    pub fn error(&self, v: DVec3) -> f64 {
+        if self.weight > 0.0 { self.eval(v) / self.weight } else { 0.0 }
+    }
+
+    /// The position minimising `vᵀQv`: solves `A v = −b` (seed 003's 4×4 system with its last row
+    /// `[0 0 0 1]`). `None` when A is ill-conditioned.
+    pub fn optimum(&self) -> Option<DVec3> {
+        let (a, b, c, d, e, f) = (self.a00, self.a01, self.a02, self.a11, self.a12, self.a22);
+        // Cofactors of the symmetric matrix [[a b c] [b d e] [c e f]].
+        let c00 = d * f - e * e;
+        let c01 = c * e - b * f;
+        let c02 = b * e - c * d;
+        let det = a * c00 + b * c01 + c * c02;
+        let scale = a.abs() + d.abs() + f.abs();
+        if scale <= 0.0 || det.abs() <= SINGULAR_DET * scale * scale * scale {
+            return None;
+        }
+        let c11 = a * f - c * c;
+        let c12 = b * c - a * e;
+        let c22 = a * d - b * b;
+        let r = DVec3::from_array(self.b).map(|x| -x);
+        let v = DVec3::new(
+            c00 * r.x + c01 * r.y + c02 * r.z,
+            c01 * r.x + c11 * r.y + c12 * r.z,
+            c02 * r.x + c12 * r.y + c22 * r.z,
+        ) / det;
+        v.is_finite().then_some(v)
+    }
+}
+
+impl Add for Quadric {
+    type Output = Quadric;
+    fn add(mut self, o: Quadric) -> Quadric {
+        self += o;
+        self
+    }
+}
+
+impl AddAssign for Quadric {
+    fn add_assign(&mut self, o: Quadric) {
+        self.a00 += o.a00;
+        self.a01 += o.a01;
+        self.a02 += o.a02;
+        self.a11 += o.a11;
+        self.a12 += o.a12;
+        self.a22 += o.a22;
+        for k in 0..3 {
+            self.b[k] += o.b[k];
+        }
+        self.c += o.c;
+        self.weight += o.weight;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn three_planes_meet_at_a_corner() {
+        // The planes x = 1, y = 2, z = 3 meet at (1, 2, 3) with zero cost there.
+        let q = Quadric::from_plane(DVec3::X, DVec3::new(1.0, 0.0, 0.0), 1.0)
+            + Quadric::from_plane(DVec3::Y, DVec3::new(0.0, 2.0, 0.0), 1.0)
+            + Quadric::from_plane(DVec3::Z, DVec3::new(0.0, 0.0, 3.0), 1.0);
+        let v = q.optimum().unwrap();
+        assert!((v - DVec3::new(1.0, 2.0, 3.0)).length() < 1e-12);
+        assert!(q.eval(v) < 1e-12);
+        // One unit off each plane costs 1 per plane.
+        assert!((q.eval(DVec3::new(2.0, 3.0, 4.0)) - 3.0).abs() < 1e-12);
+        assert!((q.error(DVec3::new(2.0, 3.0, 4.0)) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_single_plane_is_singular() {
+        let q = Quadric::from_triangle(Vec3::ZERO, Vec3::X, Vec3::Y);
+        assert!(q.optimum().is_none());
+        assert!((q.weight - 0.5).abs() < 1e-12);
+        assert!((q.eval(DVec3::new(0.3, 0.3, 2.0)) - 0.5 * 4.0).abs() < 1e-12);
+    }
+}

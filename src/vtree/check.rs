@@ -1,0 +1,183 @@
+//! Invariant checks of a vertex tree, for tests and for `vunify info --check`. The file reader runs the
+//! structural part ([`check`]) on everything it loads.
+
+use super::{NONE, VertexTree};
+use glam::Vec3;
+use std::collections::HashSet;
+
+/// Structure: one binary tree with one root, links consistent, indices in range, triangle groups
+/// tiling the triangle list, finite numbers, errors never decreasing upwards, spheres nested.
+pub fn check(tree: &VertexTree) -> Result<(), String> {
+    let n = tree.leaf_count as usize;
+    let count = tree.nodes.len();
+    if n == 0 {
+        return Err("the tree has no leaves".into());
+    }
+    if count != 2 * n - 1 {
+        return Err(format!("{count} nodes for {n} leaves: a binary tree with one root has {}", 2 * n - 1));
+    }
+    for (u, node) in tree.nodes.iter().enumerate() {
+        let finite = node.position.iter().chain(&node.color).chain(&node.normal).chain(&node.sphere).chain(&node.cone).all(|x| x.is_finite());
+        if !finite || !node.error.is_finite() || node.error < 0.0 || node.sphere[3] < 0.0 {
+            return Err(format!("node {u} has a non-finite or negative value"));
+        }
+        if u < n {
+            if node.children != [NONE, NONE] {
+                return Err(format!("leaf {u} has children"));
+            }
+        } else {
+            let [s, t] = node.children;
+            if s == t || s as usize >= u || t as usize >= u {
+                return Err(format!("node {u} has children {s}, {t}: they must be distinct and built before it"));
+            }
+            for c in [s, t] {
+                let child = &tree.nodes[c as usize];
+                if child.parent as usize != u {
+                    return Err(format!("node {c} is a child of {u} but names {} as its parent", child.parent));
+                }
+                if child.error > node.error {
+                    return Err(format!("error decreases upwards: node {c} has {} under node {u} with {}", child.error, node.error));
+                }
+                let (cu, cc) = (Vec3::from_slice(&node.sphere), Vec3::from_slice(&child.sphere));
+                let slack = 1e-5 * (node.sphere[3] + cu.abs().max_element() + 1e-6);
+                if cu.distance(cc) + child.sphere[3] > node.sphere[3] + slack {
+                    return Err(format!("the sphere of node {u} does not contain that of its child {c}"));
+                }
+            }
+            if !tree.nodes[u].sphere_contains(node.position()) {
+                return Err(format!("the sphere of node {u} does not contain its own position"));
+            }
+        }
+        let p = node.parent;
+        if u + 1 == count {
+            if p != NONE {
+                return Err(format!("the last node {u} must be the root, but has parent {p}"));
+            }
+        } else if p == NONE || p as usize <= u || p as usize >= count {
+            return Err(format!("node {u} has parent {p}: every node but the root has a later parent"));
+        } else if !tree.nodes[p as usize].children.contains(&(u as u32)) {
+            return Err(format!("node {u} names {p} as parent, which does not list it as a child"));
+        }
+    }
+    let offsets = &tree.vanish_offsets;
+    if offsets.len() != count - n + 1 || offsets[0] != 0 || *offsets.last().unwrap_or(&0) as usize != tree.triangles.len() {
+        return Err("the triangle groups do not tile the triangle list".into());
+    }
+    if offsets.windows(2).any(|w| w[0] > w[1]) {
+        return Err("triangle group offsets decrease".into());
+    }
+    for (i, t) in tree.triangles.iter().enumerate() {
+        if t.iter().any(|&v| v as usize >= n) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            return Err(format!("triangle {i} {t:?} is not three distinct leaves"));
+        }
+    }
+    Ok(())
+}
+
+impl super::Node {
+    fn sphere_contains(&self, p: Vec3) -> bool {
+        let c = Vec3::from_slice(&self.sphere);
+        c.distance(p) <= self.sphere[3] * (1.0 + 1e-5) + 1e-6 * (1.0 + c.abs().max_element())
+    }
+}
+
+/// Replays the build order and checks every cut along it: each triangle vanishes exactly at its node
+/// (degenerate there, or coincident with a surviving triangle) and, until then, is neither degenerate
+/// nor a repeat of another triangle; at the end one vertex and no triangle are left.
+pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
+    check(tree)?;
+    let n = tree.leaf_count as usize;
+    let count = tree.nodes.len();
+    // The node whose merge makes each triangle vanish.
+    let mut vanish_node = vec![0u32; tree.triangles.len()];
+    for k in 0..count - n {
+        for i in tree.vanish_offsets[k]..tree.vanish_offsets[k + 1] {
+            vanish_node[i as usize] = (n + k) as u32;
+        }
+    }
+    // The front: parent-pointer forest over current nodes (path-compressed on lookup).
+    let mut up: Vec<u32> = vec![NONE; count];
+    let find = |up: &mut Vec<u32>, v: u32| {
+        let mut r = v;
+        while up[r as usize] != NONE {
+            r = up[r as usize];
+        }
+        let mut x = v;
+        while up[x as usize] != NONE {
+            let next = up[x as usize];
+            up[x as usize] = r;
+            x = next;
+        }
+        r
+    };
+    let mut around: Vec<Vec<u32>> = vec![Vec::new(); count];
+    let mut keys: HashSet<[u32; 3]> = HashSet::with_capacity(tree.triangles.len());
+    for (i, t) in tree.triangles.iter().enumerate() {
+        let mut k = *t;
+        k.sort_unstable();
+        if !keys.insert(k) {
+            return Err(format!("triangle {i} {t:?} repeats another in the input"));
+        }
+        for &v in t {
+            around[v as usize].push(i as u32);
+        }
+    }
+    let mut alive = vec![true; tree.triangles.len()];
+    let mut live_vertices = n;
+    for u in n..count {
+        let [s, t] = tree.nodes[u].children;
+        let mut touched = std::mem::take(&mut around[s as usize]);
+        touched.append(&mut around[t as usize]);
+        touched.sort_unstable();
+        touched.dedup();
+        touched.retain(|&f| alive[f as usize]);
+        let key_of = |up: &mut Vec<u32>, f: u32| {
+            let mut k = tree.triangles[f as usize].map(|v| find(up, v));
+            k.sort_unstable();
+            k
+        };
+        for &f in &touched {
+            let k = key_of(&mut up, f);
+            keys.remove(&k);
+        }
+        up[s as usize] = u as u32;
+        up[t as usize] = u as u32;
+        live_vertices -= 1;
+        // Survivors first, so that a coincident vanishing triangle finds its survivor in `keys`.
+        for &f in &touched {
+            if vanish_node[f as usize] as usize != u {
+                if (vanish_node[f as usize] as usize) < u {
+                    return Err(format!("triangle {f} is still on the front after its node {}", vanish_node[f as usize]));
+                }
+                let k = key_of(&mut up, f);
+                if k[0] == k[1] || k[1] == k[2] {
+                    return Err(format!("triangle {f} is degenerate after merge {u} but vanishes only at {}", vanish_node[f as usize]));
+                }
+                if !keys.insert(k) {
+                    return Err(format!("triangle {f} repeats another after merge {u}"));
+                }
+            }
+        }
+        let mut vanished = 0;
+        for &f in &touched {
+            if vanish_node[f as usize] as usize == u {
+                let k = key_of(&mut up, f);
+                if !(k[0] == k[1] || k[1] == k[2] || keys.contains(&k)) {
+                    return Err(format!("triangle {f} vanishes at node {u} but is neither degenerate nor coincident there"));
+                }
+                alive[f as usize] = false;
+                vanished += 1;
+            }
+        }
+        let expected = (tree.vanish_offsets[u - n + 1] - tree.vanish_offsets[u - n]) as usize;
+        if vanished != expected {
+            return Err(format!("node {u} lists {expected} vanishing triangles but {vanished} of them touch its children"));
+        }
+        let keep: Vec<u32> = touched.into_iter().filter(|&f| alive[f as usize]).collect();
+        around[u] = keep;
+    }
+    if live_vertices != 1 || alive.iter().any(|&a| a) {
+        return Err("the build does not end in one vertex without triangles".into());
+    }
+    Ok(())
+}

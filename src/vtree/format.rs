@@ -1,0 +1,225 @@
+//! The `.vtree` file: little-endian, a section table with a CRC-32 for every byte. See docs/FORMAT.md.
+//!
+//! The reader trusts nothing: every length is checked against the file size before anything is
+//! allocated from it, every checksum is verified, and the tree is checked structurally ([`super::check`])
+//! before it is returned. Any single changed byte is detected (CRC-32 catches every burst of ≤ 32 bits,
+//! and the sections plus the table cover the file exactly).
+
+use super::{Node, PartInfo, VertexTree};
+use crate::simplify::Metric;
+use std::path::{Path, PathBuf};
+
+pub const MAGIC: [u8; 8] = *b"VUNIFYVT";
+pub const FORMAT_VERSION: u32 = 1;
+const TABLE_ENTRY: usize = 32;
+const HEADER: usize = 16;
+/// Readers of this version accept a few unknown sections (skipped) for forward compatibility.
+const MAX_SECTIONS: u32 = 16;
+const META_LEN: usize = 32;
+const NODE_LEN: u64 = std::mem::size_of::<Node>() as u64;
+const FLAG_COLORS: u32 = 1;
+const FLAG_NORMALS: u32 = 2;
+
+const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FormatErrorKind {
+    Io,
+    NotAVtree,
+    WrongVersion { found: u32 },
+    Truncated,
+    Checksum,
+    Invalid,
+}
+
+/// A `.vtree` that cannot be read, with the file, the byte offset when known, and what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{}{}: {message}", path.display(), offset.map(|o| format!(": at byte {o}")).unwrap_or_default())]
+pub struct FormatError {
+    pub path: PathBuf,
+    pub offset: Option<u64>,
+    pub kind: FormatErrorKind,
+    pub message: String,
+}
+
+fn crc(bytes: &[u8]) -> u32 {
+    crc32fast::hash(bytes)
+}
+
+/// Serialises a tree.
+pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
+    let mut meta = Vec::with_capacity(META_LEN);
+    let flags = if tree.has_colors { FLAG_COLORS } else { 0 } | if tree.has_normals { FLAG_NORMALS } else { 0 };
+    for x in [tree.leaf_count, tree.nodes.len() as u32, tree.triangles.len() as u32, tree.metric.code(), flags, tree.parts.len() as u32, 0, 0] {
+        meta.extend_from_slice(&x.to_le_bytes());
+    }
+    let mut parts = Vec::new();
+    for p in &tree.parts {
+        parts.extend_from_slice(&p.triangles.to_le_bytes());
+        parts.extend_from_slice(&(p.name.len() as u32).to_le_bytes());
+        parts.extend_from_slice(p.name.as_bytes());
+    }
+    // The in-memory layouts are little-endian Pod on every platform vunify targets.
+    const { assert!(cfg!(target_endian = "little")) };
+    let sections: [&[u8]; 5] = [
+        &meta,
+        bytemuck::cast_slice(&tree.nodes),
+        bytemuck::cast_slice(&tree.triangles),
+        bytemuck::cast_slice(&tree.vanish_offsets),
+        &parts,
+    ];
+    let table_end = HEADER + TABLE_ENTRY * sections.len();
+    let mut out = Vec::with_capacity(table_end + 4 + sections.iter().map(|s| s.len()).sum::<usize>());
+    out.extend_from_slice(&MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
+    let mut offset = (table_end + 4) as u64;
+    for (tag, s) in SECTIONS.iter().zip(sections) {
+        out.extend_from_slice(tag);
+        out.extend_from_slice(&0u32.to_le_bytes());
+        out.extend_from_slice(&offset.to_le_bytes());
+        out.extend_from_slice(&(s.len() as u64).to_le_bytes());
+        out.extend_from_slice(&crc(s).to_le_bytes());
+        out.extend_from_slice(&0u32.to_le_bytes());
+        offset += s.len() as u64;
+    }
+    let table_crc = crc(&out);
+    out.extend_from_slice(&table_crc.to_le_bytes());
+    for s in sections {
+        out.extend_from_slice(s);
+    }
+    out
+}
+
+/// Writes atomically: a temporary file beside `path`, flushed to disk, then renamed over it, so a
+/// crash leaves either the old file or the new one, never half of one.
+pub fn write(tree: &VertexTree, path: &Path) -> std::io::Result<()> {
+    crate::export::write_atomic(path, &to_bytes(tree))
+}
+
+pub fn read(path: &Path) -> Result<VertexTree, FormatError> {
+    let bytes = std::fs::read(path).map_err(|e| FormatError {
+        path: path.to_path_buf(),
+        offset: None,
+        kind: FormatErrorKind::Io,
+        message: format!("cannot read: {e}"),
+    })?;
+    read_bytes(&bytes, path)
+}
+
+struct Cursor<'a> {
+    bytes: &'a [u8],
+}
+
+impl Cursor<'_> {
+    fn u32(&self, at: usize) -> u32 {
+        u32::from_le_bytes(self.bytes[at..at + 4].try_into().expect("4 bytes"))
+    }
+    fn u64(&self, at: usize) -> u64 {
+        u64::from_le_bytes(self.bytes[at..at + 8].try_into().expect("8 bytes"))
+    }
+}
+
+/// Parses and validates `.vtree` bytes; `path` names the file in errors.
+pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
+    let fail = |offset: Option<u64>, kind, message: String| FormatError { path: path.to_path_buf(), offset, kind, message };
+    let len = bytes.len() as u64;
+    if bytes.len() < HEADER || bytes[..8] != MAGIC {
+        return Err(fail(Some(0), FormatErrorKind::NotAVtree, "not a .vtree file (bad magic)".into()));
+    }
+    let c = Cursor { bytes };
+    let version = c.u32(8);
+    if version != FORMAT_VERSION {
+        return Err(fail(Some(8), FormatErrorKind::WrongVersion { found: version }, format!("format version {version}; this build reads version {FORMAT_VERSION}")));
+    }
+    let count = c.u32(12);
+    if count > MAX_SECTIONS {
+        return Err(fail(Some(12), FormatErrorKind::Invalid, format!("{count} sections; at most {MAX_SECTIONS} are allowed")));
+    }
+    let table_end = HEADER + TABLE_ENTRY * count as usize;
+    if bytes.len() < table_end + 4 {
+        return Err(fail(Some(len), FormatErrorKind::Truncated, format!("the file ends inside its section table ({table_end} bytes needed)")));
+    }
+    if crc(&bytes[..table_end]) != c.u32(table_end) {
+        return Err(fail(Some(table_end as u64), FormatErrorKind::Checksum, "the header or section table is corrupt (checksum mismatch)".into()));
+    }
+    let mut expected = (table_end + 4) as u64;
+    let mut found: [Option<&[u8]>; 5] = [None; 5];
+    for i in 0..count as usize {
+        let at = HEADER + i * TABLE_ENTRY;
+        let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
+        let (offset, length, sum) = (c.u64(at + 8), c.u64(at + 16), c.u32(at + 24));
+        let name = String::from_utf8_lossy(&tag).into_owned();
+        if offset != expected {
+            return Err(fail(Some(at as u64), FormatErrorKind::Invalid, format!("section {name} starts at {offset}, expected {expected}: sections must follow each other")));
+        }
+        let end = offset.checked_add(length).filter(|&e| e <= len).ok_or_else(|| {
+            fail(Some(len), FormatErrorKind::Truncated, format!("section {name} ({length} bytes at {offset}) runs past the end of the {len}-byte file"))
+        })?;
+        let body = &bytes[offset as usize..end as usize];
+        if crc(body) != sum {
+            return Err(fail(Some(offset), FormatErrorKind::Checksum, format!("section {name} is corrupt (checksum mismatch)")));
+        }
+        if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
+            if found[k].is_some() {
+                return Err(fail(Some(at as u64), FormatErrorKind::Invalid, format!("section {name} appears twice")));
+            }
+            found[k] = Some(body);
+        }
+        expected = end;
+    }
+    if expected != len {
+        return Err(fail(Some(expected), FormatErrorKind::Invalid, format!("{} bytes after the last section", len - expected)));
+    }
+    let section = |k: usize| found[k].ok_or_else(|| fail(None, FormatErrorKind::Invalid, format!("section {} is missing", String::from_utf8_lossy(&SECTIONS[k]))));
+    let (meta, node_bytes, tri_bytes, off_bytes, part_bytes) = (section(0)?, section(1)?, section(2)?, section(3)?, section(4)?);
+    if meta.len() != META_LEN {
+        return Err(fail(None, FormatErrorKind::Invalid, format!("META is {} bytes, expected {META_LEN}", meta.len())));
+    }
+    let m = Cursor { bytes: meta };
+    let (leaves, nodes, tris, metric, flags, parts) = (m.u32(0), m.u32(4), m.u32(8), m.u32(12), m.u32(16), m.u32(20));
+    let metric = Metric::from_code(metric).ok_or_else(|| fail(None, FormatErrorKind::Invalid, format!("unknown metric code {metric}")))?;
+    let want = |what: &str, have: usize, count: u64, size: u64| {
+        if have as u64 != count * size {
+            Err(fail(None, FormatErrorKind::Invalid, format!("section {what} is {have} bytes, but META's counts need {}", count * size)))
+        } else {
+            Ok(())
+        }
+    };
+    if leaves == 0 || nodes < leaves {
+        return Err(fail(None, FormatErrorKind::Invalid, format!("META says {nodes} nodes for {leaves} leaves")));
+    }
+    want("NODE", node_bytes.len(), nodes as u64, NODE_LEN)?;
+    want("TRIS", tri_bytes.len(), tris as u64, 12)?;
+    want("VOFF", off_bytes.len(), (nodes - leaves) as u64 + 1, 4)?;
+
+    let mut part_list = Vec::new();
+    let mut at = 0usize;
+    for i in 0..parts {
+        let p = Cursor { bytes: part_bytes };
+        if at + 8 > part_bytes.len() {
+            return Err(fail(None, FormatErrorKind::Invalid, format!("PART ends inside part {i}")));
+        }
+        let (triangles, name_len) = (p.u32(at), p.u32(at + 4) as usize);
+        let name = part_bytes.get(at + 8..at + 8 + name_len).ok_or_else(|| fail(None, FormatErrorKind::Invalid, format!("PART: name of part {i} runs past the section")))?;
+        let name = std::str::from_utf8(name).map_err(|_| fail(None, FormatErrorKind::Invalid, format!("PART: name of part {i} is not UTF-8")))?;
+        part_list.push(PartInfo { name: name.to_owned(), triangles });
+        at += 8 + name_len;
+    }
+    if at != part_bytes.len() {
+        return Err(fail(None, FormatErrorKind::Invalid, "PART has bytes after its last part".into()));
+    }
+
+    let tree = VertexTree {
+        leaf_count: leaves,
+        nodes: bytemuck::pod_collect_to_vec(node_bytes),
+        triangles: bytemuck::pod_collect_to_vec(tri_bytes),
+        vanish_offsets: bytemuck::pod_collect_to_vec(off_bytes),
+        metric,
+        has_colors: flags & FLAG_COLORS != 0,
+        has_normals: flags & FLAG_NORMALS != 0,
+        parts: part_list,
+    };
+    super::check(&tree).map_err(|e| fail(None, FormatErrorKind::Invalid, format!("the tree is inconsistent: {e}")))?;
+    Ok(tree)
+}

@@ -1,0 +1,118 @@
+//! The binary vertex tree of seed 001 (§3.1): leaves are the input vertices, each internal node the
+//! `vunify` of its two children, the root the whole scene merged to one vertex.
+//!
+//! Nodes are numbered leaves first (`0..leaf_count`, the input's vertex order), then internal nodes in
+//! build order, so children always precede their parent and the root is the last node. Triangles are
+//! stored once, as leaf indices, grouped by the node whose merge makes them vanish ("the triangle set
+//! enumerated by u"); a front maps their corners to its vertices.
+
+mod build;
+mod check;
+mod extract;
+mod format;
+
+pub use build::{BuildOptions, BuildStats, build};
+pub use check::{check, check_cut};
+pub use extract::{Cut, cut_at_error, cut_at_merges, cut_at_triangles};
+pub use format::{FORMAT_VERSION, FormatError, MAGIC, read, read_bytes, to_bytes, write};
+
+use crate::simplify::Metric;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// No parent or child.
+pub const NONE: u32 = u32::MAX;
+
+/// One tree node, exactly as stored in a `.vtree` file (84 bytes, little-endian).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Node {
+    pub position: [f32; 3],
+    /// Object-space error of the mesh where this node stands in for its subtree; never less than a
+    /// child's (0 for leaves).
+    pub error: f32,
+    /// Linear RGB, carried down from the input (white when it has none).
+    pub color: [f32; 3],
+    pub parent: u32,
+    /// Unit normal (zero when unknown).
+    pub normal: [f32; 3],
+    /// `[NONE, NONE]` for a leaf.
+    pub children: [u32; 2],
+    /// Bounding sphere `(center, radius)` of every vertex of the subtree and the triangles around leaves.
+    pub sphere: [f32; 4],
+    /// Normal cone `(axis, cos half-angle)` of the subtree's faces; `cos = -1` means every direction.
+    pub cone: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<Node>() == 84);
+
+impl Node {
+    pub fn is_leaf(&self) -> bool {
+        self.children[0] == NONE
+    }
+    pub fn position(&self) -> Vec3 {
+        Vec3::from_array(self.position)
+    }
+}
+
+/// A named part of the input scene (OBJ object or group), with its triangle count.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct PartInfo {
+    pub name: String,
+    pub triangles: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexTree {
+    pub leaf_count: u32,
+    pub nodes: Vec<Node>,
+    /// Every input triangle as leaf indices, grouped by vanishing node (see [`VertexTree::vanishing`]).
+    pub triangles: Vec<[u32; 3]>,
+    /// `vanish_offsets[k]..vanish_offsets[k + 1]` are the triangles of internal node `leaf_count + k`.
+    pub vanish_offsets: Vec<u32>,
+    pub metric: Metric,
+    pub has_colors: bool,
+    pub has_normals: bool,
+    pub parts: Vec<PartInfo>,
+}
+
+impl VertexTree {
+    pub fn root(&self) -> u32 {
+        self.nodes.len() as u32 - 1
+    }
+
+    pub fn internal_count(&self) -> u32 {
+        self.nodes.len() as u32 - self.leaf_count
+    }
+
+    /// The triangles that vanish when node `u`'s children merge (empty for a leaf).
+    pub fn vanishing(&self, u: u32) -> &[[u32; 3]] {
+        if u < self.leaf_count {
+            return &[];
+        }
+        let k = (u - self.leaf_count) as usize;
+        &self.triangles[self.vanish_offsets[k] as usize..self.vanish_offsets[k + 1] as usize]
+    }
+
+    /// Depth of the tree: edges on the longest root-to-leaf path.
+    pub fn depth(&self) -> u32 {
+        let mut depth = vec![0u32; self.nodes.len()];
+        let mut max = 0;
+        for u in (0..self.nodes.len()).rev() {
+            let p = self.nodes[u].parent;
+            if p != NONE {
+                depth[u] = depth[p as usize] + 1;
+                max = max.max(depth[u]);
+            }
+        }
+        max
+    }
+
+    /// Bounding-box diagonal of the leaves.
+    pub fn diagonal(&self) -> f32 {
+        let leaves = &self.nodes[..self.leaf_count as usize];
+        let lo = leaves.iter().fold(Vec3::splat(f32::INFINITY), |a, n| a.min(n.position()));
+        let hi = leaves.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, n| a.max(n.position()));
+        if leaves.is_empty() { 0.0 } else { (hi - lo).length() }
+    }
+}
