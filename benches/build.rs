@@ -1,1 +1,209 @@
-fn main(){}
+//! Builder benchmark against meshoptimizer, in the same process and run (ratios hold on a noisy shared
+//! machine; absolute times drift). Prints Markdown tables for BENCHMARKS.md.
+//!
+//! cargo bench --bench build [-- --models cow,bunny] [--skip-quality] [--skip-metrics]
+//!
+//! Models come from $VUNIFY_MODELS (default ../shared/models).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+use std::time::Instant;
+use vunify::mesh::{self, CleanOptions, Mesh, Part};
+use vunify::simplify::Metric;
+use vunify::vtree::{self, BuildOptions};
+
+/// Counts live heap bytes and their peak, so builder and meshopt peaks are measured the same way.
+struct Counting;
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        let p = unsafe { System.alloc(l) };
+        if !p.is_null() {
+            let now = LIVE.fetch_add(l.size(), Relaxed) + l.size();
+            PEAK.fetch_max(now, Relaxed);
+        }
+        p
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) };
+        LIVE.fetch_sub(l.size(), Relaxed);
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        let q = unsafe { System.realloc(p, l, new) };
+        if !q.is_null() {
+            if new > l.size() {
+                let now = LIVE.fetch_add(new - l.size(), Relaxed) + new - l.size();
+                PEAK.fetch_max(now, Relaxed);
+            } else {
+                LIVE.fetch_sub(l.size() - new, Relaxed);
+            }
+        }
+        q
+    }
+}
+
+#[global_allocator]
+static ALLOC: Counting = Counting;
+
+/// Runs `f`, returning its result, seconds, and the peak heap bytes it added above what was live.
+fn measured<T>(f: impl FnOnce() -> T) -> (T, f64, usize) {
+    let base = LIVE.load(Relaxed);
+    PEAK.store(base, Relaxed);
+    let t = Instant::now();
+    let out = f();
+    let secs = t.elapsed().as_secs_f64();
+    (out, secs, PEAK.load(Relaxed) - base)
+}
+
+fn meshopt_simplify(mesh: &Mesh, target_triangles: usize) -> Mesh {
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
+        .expect("positions");
+    let out = meshopt::simplify(
+        &indices,
+        &adapter,
+        target_triangles * 3,
+        f32::MAX,
+        meshopt::SimplifyOptions::empty(),
+        None,
+    );
+    let triangles: Vec<[u32; 3]> = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let parts = vec![Part {
+        name: "meshopt".into(),
+        triangles: 0..triangles.len() as u32,
+    }];
+    Mesh {
+        positions: mesh.positions.clone(),
+        colors: None,
+        normals: None,
+        triangles,
+        parts,
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let flag = |name: &str| args.iter().any(|a| a == name);
+    let models: Vec<String> = args
+        .iter()
+        .position(|a| a == "--models")
+        .and_then(|i| args.get(i + 1))
+        .map(|s| s.split(',').map(String::from).collect())
+        .unwrap_or_else(|| {
+            ["cow", "fandisk", "cessna", "bunny", "horse", "dragon"]
+                .map(String::from)
+                .to_vec()
+        });
+    let dir = std::env::var("VUNIFY_MODELS").unwrap_or_else(|_| "../shared/models".into());
+    let file_of = |m: &str| match m {
+        "bunny" => "stanford-bunny.obj".to_string(),
+        "dragon" => "stanford-dragon.obj.xz".to_string(),
+        "laurana" => "laurana50k-vcolor.obj".to_string(),
+        other => format!("{other}.obj"),
+    };
+    let samples = vunify::measure::DEFAULT_SAMPLES;
+
+    println!("## Build: vunify whole tree (qem) vs meshopt::simplify to 1 %\n");
+    println!(
+        "| model | triangles | vunify build s | meshopt 1 % s | time ratio | vunify peak MiB | B/tri | meshopt peak MiB |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    let mut loaded = Vec::new();
+    for m in &models {
+        let path = std::path::Path::new(&dir).join(file_of(m));
+        let (mesh, _) = match mesh::load(&path, &CleanOptions::default()) {
+            Ok(x) => x,
+            Err(e) => {
+                eprintln!("skipping {m}: {e}");
+                continue;
+            }
+        };
+        let t = mesh.triangle_count();
+        let (tree, build_s, build_peak) = measured(|| {
+            vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
+                .expect("build")
+                .0
+        });
+        let (_, mo_s, mo_peak) = measured(|| meshopt_simplify(&mesh, t / 100));
+        println!(
+            "| {m} | {t} | {build_s:.3} | {mo_s:.3} | {:.2}× | {:.1} | {:.0} | {:.1} |",
+            build_s / mo_s,
+            build_peak as f64 / 1048576.0,
+            build_peak as f64 / t as f64,
+            mo_peak as f64 / 1048576.0
+        );
+        loaded.push((m.clone(), mesh, tree));
+    }
+
+    if !flag("--skip-quality") {
+        println!(
+            "\n## Quality: Hausdorff distance (% of bbox diagonal) of `extract` vs meshopt at the same triangle count\n"
+        );
+        println!(
+            "| model | level | triangles | vunify mean | meshopt mean | mean ratio | vunify max | meshopt max | max ratio |"
+        );
+        println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+        for (m, mesh, tree) in &loaded {
+            for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
+                let target = (mesh.triangle_count() as f64 * ratio) as usize;
+                let mo = meshopt_simplify(mesh, target);
+                let cut = vtree::cut_at_triangles(tree, mo.triangle_count() as u32);
+                let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
+                let hm = vunify::measure::hausdorff(mesh, &mo, samples).symmetric;
+                println!(
+                    "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} |",
+                    cut.mesh.triangle_count(),
+                    mo.triangle_count(),
+                    100.0 * hv.mean,
+                    100.0 * hm.mean,
+                    hv.mean / hm.mean.max(1e-12),
+                    100.0 * hv.max,
+                    100.0 * hm.max,
+                    hv.max / hm.max.max(1e-12)
+                );
+            }
+        }
+    }
+
+    if !flag("--skip-metrics") {
+        println!(
+            "\n## The four metrics (seed 003's comparison): Hausdorff mean / max (% of diagonal), build seconds\n"
+        );
+        println!("| model | level | qem | qem-midpoint | edge-length | hybrid |");
+        println!("|---|---|---|---|---|---|");
+        for (m, mesh, _) in &loaded {
+            let metrics = [
+                Metric::Qem,
+                Metric::QemMidpoint,
+                Metric::EdgeLength,
+                Metric::Hybrid,
+            ];
+            let trees: Vec<(vtree::VertexTree, f64)> = metrics
+                .iter()
+                .map(|&metric| {
+                    let o = BuildOptions {
+                        metric,
+                        ..Default::default()
+                    };
+                    let (tree, s, _) =
+                        measured(|| vtree::build(mesh, &o, &mut |_, _| {}).expect("build").0);
+                    (tree, s)
+                })
+                .collect();
+            for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
+                let target = (mesh.triangle_count() as f64 * ratio) as u32;
+                let cells: Vec<String> = trees
+                    .iter()
+                    .map(|(tree, s)| {
+                        let cut = vtree::cut_at_triangles(tree, target);
+                        let h = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
+                        format!("{:.4} / {:.3} ({s:.2} s)", 100.0 * h.mean, 100.0 * h.max)
+                    })
+                    .collect();
+                println!("| {m} | {label} | {} |", cells.join(" | "));
+            }
+        }
+    }
+}

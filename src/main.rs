@@ -14,13 +14,18 @@ use vunify::vtree::{self, BuildOptions};
 const DEFAULT_MODEL: &str = "assets/cessna.obj";
 
 #[derive(Parser)]
-#[command(name = "vunify", version, about = "View-dependent level of detail for triangle meshes.", long_about = "\
+#[command(
+    name = "vunify",
+    version,
+    about = "View-dependent level of detail for triangle meshes.",
+    long_about = "\
 View-dependent level of detail for triangle meshes.
 
 vunify builds a binary vertex tree of vertex merges (vunify / vsplit, which may join any two vertices
 and so change topology) from a mesh or a whole scene, stores it as a .vtree file, and takes static
 levels of detail from it. Run without a command, it builds the tree of the bundled default model and
-prints its summary.")]
+prints its summary."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -126,7 +131,12 @@ fn main() {
         Some(Command::Build(args)) => build(args),
         Some(Command::Info { file, check, json }) => info(&file, check, json),
         Some(Command::Extract(args)) => extract(args),
-        Some(Command::Measure { original, simplified, samples, json }) => measure(&original, &simplified, samples, json),
+        Some(Command::Measure {
+            original,
+            simplified,
+            samples,
+            json,
+        }) => measure(&original, &simplified, samples, json),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -146,7 +156,8 @@ fn default_job() -> Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let input = root.join(DEFAULT_MODEL);
     let out_dir = root.join("out");
-    std::fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    std::fs::create_dir_all(&out_dir)
+        .with_context(|| format!("cannot create {}", out_dir.display()))?;
     println!("vunify: building the vertex tree of the default model {DEFAULT_MODEL}");
     build(BuildArgs {
         input,
@@ -164,26 +175,44 @@ fn default_job() -> Result<()> {
 
 fn build(args: BuildArgs) -> Result<()> {
     if !(args.pair_distance >= 0.0 && args.pair_distance.is_finite()) {
-        bail!("--pair-distance must be a non-negative number, got {}", args.pair_distance);
+        bail!(
+            "--pair-distance must be a non-negative number, got {}",
+            args.pair_distance
+        );
     }
     if !(args.sharp_angle > 0.0 && args.sharp_angle <= 180.0) {
-        bail!("--sharp-angle must be in (0, 180] degrees, got {}", args.sharp_angle);
+        bail!(
+            "--sharp-angle must be in (0, 180] degrees, got {}",
+            args.sharp_angle
+        );
     }
     let output = args.output.clone().unwrap_or_else(|| {
-        let stem = args.input.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let stem = args
+            .input
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
         let stem = stem.trim_end_matches(".xz");
         let stem = stem.rsplit_once('.').map_or(stem, |(s, _)| s);
         PathBuf::from(format!("{stem}.vtree"))
     });
     let t0 = Instant::now();
-    let (mesh, cleaned) = mesh::load(&args.input, &CleanOptions { weld: !args.no_weld })?;
+    let (mesh, cleaned) = mesh::load(
+        &args.input,
+        &CleanOptions {
+            weld: !args.no_weld,
+        },
+    )?;
     let load_secs = t0.elapsed().as_secs_f64();
     let options = BuildOptions {
         metric: args.metric,
         pair_distance: args.pair_distance,
         max_pairs_per_vertex: args.max_pairs,
         sharp_angle_deg: args.sharp_angle,
-        hybrid: HybridWeights { distance: args.w_dist, feature: args.w_feature },
+        hybrid: HybridWeights {
+            distance: args.w_dist,
+            feature: args.w_feature,
+        },
     };
     let bar = indicatif::ProgressBar::new(mesh.vertex_count().saturating_sub(1) as u64);
     bar.set_style(
@@ -192,7 +221,9 @@ fn build(args: BuildArgs) -> Result<()> {
             .progress_chars("=> "),
     );
     bar.set_message("building");
-    let (tree, stats) = vtree::build(&mesh, &options, &mut |done, _| bar.set_position(done as u64))?;
+    let (tree, stats) = vtree::build(&mesh, &options, &mut |done, _| {
+        bar.set_position(done as u64)
+    })?;
     bar.finish_and_clear();
     vtree::write(&tree, &output).with_context(|| format!("cannot write {}", output.display()))?;
     let peak = peak_memory_bytes();
@@ -206,20 +237,38 @@ fn build(args: BuildArgs) -> Result<()> {
         return Ok(());
     }
     println!("input      {}", args.input.display());
-    println!("           {} vertices, {} triangles, {} part(s)", mesh.vertex_count(), mesh.triangle_count(), mesh.parts.len());
+    println!(
+        "           {} vertices, {} triangles, {} part(s)",
+        mesh.vertex_count(),
+        mesh.triangle_count(),
+        mesh.parts.len()
+    );
     println!(
         "cleaned    {} welded, {} unused vertices dropped; {} degenerate and {} duplicate faces dropped",
-        cleaned.welded_vertices, cleaned.unused_vertices, cleaned.degenerate_faces, cleaned.duplicate_faces
+        cleaned.welded_vertices,
+        cleaned.unused_vertices,
+        cleaned.degenerate_faces,
+        cleaned.duplicate_faces
     );
     println!("metric     {}", args.metric.name());
-    println!("tree       {} nodes ({} leaves), one root, depth {}", stats.nodes, stats.leaves, stats.depth);
+    println!(
+        "tree       {} nodes ({} leaves), one root, depth {}",
+        stats.nodes, stats.leaves, stats.depth
+    );
     println!(
         "pairs      {} feature edges, {} close non-edge pairs, {} flip deferrals, {} widenings",
         stats.feature_edges, stats.proximity_pairs, stats.flip_deferrals, stats.widenings
     );
-    println!("time       load {load_secs:.2} s, build {:.2} s", stats.seconds);
+    println!(
+        "time       load {load_secs:.2} s, build {:.2} s",
+        stats.seconds
+    );
     if let Some(p) = peak {
-        println!("memory     peak {:.1} MiB ({:.0} bytes per input triangle)", p as f64 / 1048576.0, p as f64 / mesh.triangle_count() as f64);
+        println!(
+            "memory     peak {:.1} MiB ({:.0} bytes per input triangle)",
+            p as f64 / 1048576.0,
+            p as f64 / mesh.triangle_count() as f64
+        );
     }
     println!("wrote      {}", output.display());
     Ok(())
@@ -228,7 +277,9 @@ fn build(args: BuildArgs) -> Result<()> {
 fn info(file: &Path, check: bool, json: bool) -> Result<()> {
     let tree = vtree::read(file)?;
     if check {
-        vtree::check_cut(&tree).map_err(|e| anyhow::anyhow!("{}: the build order is inconsistent: {e}", file.display()))?;
+        vtree::check_cut(&tree).map_err(|e| {
+            anyhow::anyhow!("{}: the build order is inconsistent: {e}", file.display())
+        })?;
     }
     let root = &tree.nodes[tree.root() as usize];
     if json {
@@ -241,10 +292,24 @@ fn info(file: &Path, check: bool, json: bool) -> Result<()> {
         return Ok(());
     }
     println!("file       {}", file.display());
-    println!("tree       {} nodes ({} leaves), depth {}, metric {}", tree.nodes.len(), tree.leaf_count, tree.depth(), tree.metric.name());
+    println!(
+        "tree       {} nodes ({} leaves), depth {}, metric {}",
+        tree.nodes.len(),
+        tree.leaf_count,
+        tree.depth(),
+        tree.metric.name()
+    );
     println!("triangles  {}", tree.triangles.len());
-    println!("attributes colours: {}, normals: {}", tree.has_colors, tree.has_normals);
-    println!("root       error {:.4} ({:.4} % of the diagonal {:.4})", root.error, 100.0 * root.error / tree.diagonal().max(f32::MIN_POSITIVE), tree.diagonal());
+    println!(
+        "attributes colours: {}, normals: {}",
+        tree.has_colors, tree.has_normals
+    );
+    println!(
+        "root       error {:.4} ({:.4} % of the diagonal {:.4})",
+        root.error,
+        100.0 * root.error / tree.diagonal().max(f32::MIN_POSITIVE),
+        tree.diagonal()
+    );
     println!("parts      {}", tree.parts.len());
     for p in tree.parts.iter().take(20) {
         println!("           {:>8} triangles  {}", p.triangles, p.name);
@@ -277,13 +342,18 @@ fn extract(args: ExtractArgs) -> Result<()> {
         }
         _ => unreachable!("clap requires exactly one target"),
     };
-    vunify::export::write_obj(&cut.mesh, &args.output).with_context(|| format!("cannot write {}", args.output.display()))?;
+    vunify::export::write_obj(&cut.mesh, &args.output)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
     println!(
         "wrote {}: {} vertices, {} triangles (of {total}){}",
         args.output.display(),
         cut.mesh.vertex_count(),
         cut.mesh.triangle_count(),
-        if cut.dropped > 0 { format!(", {} repeated triangles dropped", cut.dropped) } else { String::new() }
+        if cut.dropped > 0 {
+            format!(", {} repeated triangles dropped", cut.dropped)
+        } else {
+            String::new()
+        }
     );
     Ok(())
 }
@@ -297,10 +367,26 @@ fn measure(original: &Path, simplified: &Path, samples: usize, json: bool) -> Re
         println!("{}", serde_json::to_string_pretty(&h)?);
         return Ok(());
     }
-    println!("Hausdorff distance, as % of the original's bounding-box diagonal ({:.6}):", h.diagonal);
-    println!("              {:>10} {:>10} {:>10} {:>10}", "max", "mean", "RMS", "samples");
-    for (name, s) in [("original→simp", h.forward), ("simp→original", h.backward), ("symmetric", h.symmetric)] {
-        println!("{name:<14}{:>9.4}% {:>9.4}% {:>9.4}% {:>10}", 100.0 * s.max, 100.0 * s.mean, 100.0 * s.rms, s.samples);
+    println!(
+        "Hausdorff distance, as % of the original's bounding-box diagonal ({:.6}):",
+        h.diagonal
+    );
+    println!(
+        "              {:>10} {:>10} {:>10} {:>10}",
+        "max", "mean", "RMS", "samples"
+    );
+    for (name, s) in [
+        ("original→simp", h.forward),
+        ("simp→original", h.backward),
+        ("symmetric", h.symmetric),
+    ] {
+        println!(
+            "{name:<14}{:>9.4}% {:>9.4}% {:>9.4}% {:>10}",
+            100.0 * s.max,
+            100.0 * s.mean,
+            100.0 * s.rms,
+            s.samples
+        );
     }
     Ok(())
 }

@@ -8,9 +8,18 @@ use std::path::Path;
 /// Writes `bytes` to `path` through a temporary file in the same directory and a rename, so a crash
 /// never leaves a half-written file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| std::io::Error::other("the output path has no file name"))?;
-    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::other("the output path has no file name"))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -27,7 +36,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 pub fn obj_string(mesh: &Mesh) -> String {
     let mut s = String::with_capacity(mesh.positions.len() * 40 + mesh.triangles.len() * 24);
     let _ = writeln!(s, "# written by vunify {}", env!("CARGO_PKG_VERSION"));
-    let _ = writeln!(s, "# {} vertices, {} triangles", mesh.positions.len(), mesh.triangles.len());
+    let _ = writeln!(
+        s,
+        "# {} vertices, {} triangles",
+        mesh.positions.len(),
+        mesh.triangles.len()
+    );
     for (i, p) in mesh.positions.iter().enumerate() {
         match &mesh.colors {
             Some(c) => {

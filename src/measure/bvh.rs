@@ -61,9 +61,13 @@ pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
         let candidates = [
             a + ab * (ap.dot(ab) / ab.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0),
             a + ac * (ap.dot(ac) / ac.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0),
-            b + (c - b) * (bp.dot(c - b) / (c - b).length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0),
+            b + (c - b)
+                * (bp.dot(c - b) / (c - b).length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0),
         ];
-        return candidates.into_iter().min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p))).unwrap_or(a);
+        return candidates
+            .into_iter()
+            .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+            .unwrap_or(a);
     }
     let v = vb / denom;
     let w = vc / denom;
@@ -77,11 +81,19 @@ fn box_distance_squared(p: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 
 impl Bvh {
     pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Bvh {
-        let tris: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|v| positions[v as usize])).collect();
+        let tris: Vec<[Vec3; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|v| positions[v as usize]))
+            .collect();
         let mut order: Vec<u32> = (0..tris.len() as u32).collect();
         let centroids: Vec<Vec3> = tris.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
         let mut nodes = Vec::with_capacity(2 * tris.len() / LEAF_SIZE + 1);
-        nodes.push(BvhNode { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 });
+        nodes.push(BvhNode {
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
+            start: 0,
+            count: 0,
+        });
         let mut stack = vec![(0usize, 0usize, order.len())];
         while let Some((node, start, end)) = stack.pop() {
             let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -92,7 +104,12 @@ impl Bvh {
                 }
             }
             if end - start <= LEAF_SIZE {
-                nodes[node] = BvhNode { lo, hi, start: start as u32, count: (end - start) as u32 };
+                nodes[node] = BvhNode {
+                    lo,
+                    hi,
+                    start: start as u32,
+                    count: (end - start) as u32,
+                };
                 continue;
             }
             let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -101,13 +118,36 @@ impl Bvh {
                 chi = chi.max(centroids[t as usize]);
             }
             let ext = chi - clo;
-            let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
             let mid = start + (end - start) / 2;
-            order[start..end].select_nth_unstable_by(mid - start, |&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]));
+            order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+                centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+            });
             let left = nodes.len();
-            nodes.push(BvhNode { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 });
-            nodes.push(BvhNode { lo: Vec3::ZERO, hi: Vec3::ZERO, start: 0, count: 0 });
-            nodes[node] = BvhNode { lo, hi, start: left as u32, count: 0 };
+            nodes.push(BvhNode {
+                lo: Vec3::ZERO,
+                hi: Vec3::ZERO,
+                start: 0,
+                count: 0,
+            });
+            nodes.push(BvhNode {
+                lo: Vec3::ZERO,
+                hi: Vec3::ZERO,
+                start: 0,
+                count: 0,
+            });
+            nodes[node] = BvhNode {
+                lo,
+                hi,
+                start: left as u32,
+                count: 0,
+            };
             stack.push((left, start, mid));
             stack.push((left + 1, mid, end));
         }

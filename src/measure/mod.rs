@@ -56,8 +56,25 @@ pub fn sample_surface(mesh: &Mesh, samples: usize) -> Vec<Vec3> {
     let p = &mesh.positions;
     let edge_budget = samples / 4;
     let face_budget = samples - edge_budget;
-    let total_len: f64 = mesh.triangles.iter().map(|t| (0..3).map(|k| p[t[k] as usize].distance(p[t[(k + 1) % 3] as usize]) as f64).sum::<f64>()).sum();
-    let total_area: f64 = mesh.triangles.iter().map(|t| ((p[t[1] as usize] - p[t[0] as usize]).cross(p[t[2] as usize] - p[t[0] as usize]).length() * 0.5) as f64).sum();
+    let total_len: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            (0..3)
+                .map(|k| p[t[k] as usize].distance(p[t[(k + 1) % 3] as usize]) as f64)
+                .sum::<f64>()
+        })
+        .sum();
+    let total_area: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            ((p[t[1] as usize] - p[t[0] as usize])
+                .cross(p[t[2] as usize] - p[t[0] as usize])
+                .length()
+                * 0.5) as f64
+        })
+        .sum();
     let (mut carry_e, mut carry_f) = (0.0f64, 0.0f64);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|v| p[v as usize]);
@@ -72,7 +89,8 @@ pub fn sample_surface(mesh: &Mesh, samples: usize) -> Vec<Vec3> {
             }
         }
         if total_area > 0.0 {
-            carry_f += ((b - a).cross(c - a).length() * 0.5) as f64 / total_area * face_budget as f64;
+            carry_f +=
+                ((b - a).cross(c - a).length() * 0.5) as f64 / total_area * face_budget as f64;
             while carry_f >= 1.0 {
                 carry_f -= 1.0;
                 let (mut s, mut r) = (rng.next_f32(), rng.next_f32());
@@ -95,9 +113,17 @@ fn one_sided(from: &Mesh, to: &Bvh, samples: usize, unit: f64) -> (OneSided, f64
             let d = to.distance(q) as f64;
             (d, d, d * d)
         })
-        .reduce(|| (0.0, 0.0, 0.0), |x, y| (x.0.max(y.0), x.1 + y.1, x.2 + y.2));
+        .reduce(
+            || (0.0, 0.0, 0.0),
+            |x, y| (x.0.max(y.0), x.1 + y.1, x.2 + y.2),
+        );
     let n = points.len().max(1) as f64;
-    let side = OneSided { max: max / unit, mean: sum / n / unit, rms: (sum2 / n).sqrt() / unit, samples: points.len() };
+    let side = OneSided {
+        max: max / unit,
+        mean: sum / n / unit,
+        rms: (sum2 / n).sqrt() / unit,
+        samples: points.len(),
+    };
     (side, sum, sum2)
 }
 
@@ -118,7 +144,12 @@ pub fn hausdorff(original: &Mesh, simplified: &Mesh, samples: usize) -> Hausdorf
         rms: ((fs2 + bs2) / n).sqrt() / unit,
         samples: f.samples + b.samples,
     };
-    Hausdorff { forward: f, backward: b, symmetric, diagonal: unit }
+    Hausdorff {
+        forward: f,
+        backward: b,
+        symmetric,
+        diagonal: unit,
+    }
 }
 
 #[cfg(test)]
@@ -126,7 +157,12 @@ mod tests {
     use super::*;
 
     fn square(z: f32) -> Mesh {
-        let p = vec![Vec3::new(0.0, 0.0, z), Vec3::new(1.0, 0.0, z), Vec3::new(1.0, 1.0, z), Vec3::new(0.0, 1.0, z)];
+        let p = vec![
+            Vec3::new(0.0, 0.0, z),
+            Vec3::new(1.0, 0.0, z),
+            Vec3::new(1.0, 1.0, z),
+            Vec3::new(0.0, 1.0, z),
+        ];
         Mesh::from_triangles(p, vec![[0, 1, 2], [0, 2, 3]])
     }
 
@@ -152,9 +188,21 @@ mod tests {
     #[test]
     fn closest_point_regions() {
         let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
-        assert_eq!(closest_point_on_triangle(Vec3::new(0.2, 0.2, 1.0), a, b, c), Vec3::new(0.2, 0.2, 0.0));
-        assert_eq!(closest_point_on_triangle(Vec3::new(-1.0, -1.0, 0.0), a, b, c), a);
-        assert_eq!(closest_point_on_triangle(Vec3::new(0.5, -1.0, 0.0), a, b, c), Vec3::new(0.5, 0.0, 0.0));
-        assert_eq!(closest_point_on_triangle(Vec3::new(1.0, 1.0, 0.0), a, b, c), Vec3::new(0.5, 0.5, 0.0));
+        assert_eq!(
+            closest_point_on_triangle(Vec3::new(0.2, 0.2, 1.0), a, b, c),
+            Vec3::new(0.2, 0.2, 0.0)
+        );
+        assert_eq!(
+            closest_point_on_triangle(Vec3::new(-1.0, -1.0, 0.0), a, b, c),
+            a
+        );
+        assert_eq!(
+            closest_point_on_triangle(Vec3::new(0.5, -1.0, 0.0), a, b, c),
+            Vec3::new(0.5, 0.0, 0.0)
+        );
+        assert_eq!(
+            closest_point_on_triangle(Vec3::new(1.0, 1.0, 0.0), a, b, c),
+            Vec3::new(0.5, 0.5, 0.0)
+        );
     }
 }

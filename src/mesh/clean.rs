@@ -56,7 +56,8 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
     }
 
     // 2. Faces: drop degenerate and duplicate ones, part by part.
-    let mut seen: std::collections::HashSet<[u32; 3]> = std::collections::HashSet::with_capacity(mesh.triangles.len());
+    let mut seen: std::collections::HashSet<[u32; 3]> =
+        std::collections::HashSet::with_capacity(mesh.triangles.len());
     let mut triangles = Vec::with_capacity(mesh.triangles.len());
     let mut parts = Vec::with_capacity(mesh.parts.len());
     for part in &mesh.parts {
@@ -77,7 +78,10 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
         }
         let end = triangles.len() as u32;
         if end > start {
-            parts.push(Part { name: part.name.clone(), triangles: start..end });
+            parts.push(Part {
+                name: part.name.clone(),
+                triangles: start..end,
+            });
         }
     }
 
@@ -135,7 +139,15 @@ mod tests {
         ];
         let mesh = Mesh::from_triangles(p, vec![[0, 1, 2], [0, 3, 4], [0, 0, 3], [2, 4, 0]]);
         let (out, report) = clean(mesh, &CleanOptions::default());
-        assert_eq!(report, CleanReport { welded_vertices: 1, unused_vertices: 1, degenerate_faces: 1, duplicate_faces: 1 });
+        assert_eq!(
+            report,
+            CleanReport {
+                welded_vertices: 1,
+                unused_vertices: 1,
+                degenerate_faces: 1,
+                duplicate_faces: 1
+            }
+        );
         assert_eq!(out.positions.len(), 4);
         assert_eq!(out.triangles, vec![[0, 1, 2], [0, 3, 1]]);
     }

@@ -22,7 +22,11 @@ pub struct InputError {
 
 impl InputError {
     pub fn new(path: &Path, location: Location, message: impl Into<String>) -> InputError {
-        InputError { path: path.to_path_buf(), location, message: message.into() }
+        InputError {
+            path: path.to_path_buf(),
+            location,
+            message: message.into(),
+        }
     }
     pub fn line(path: &Path, line: usize, message: impl Into<String>) -> InputError {
         InputError::new(path, Location::Line(line), message)

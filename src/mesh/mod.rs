@@ -67,8 +67,17 @@ impl Mesh {
 
     /// A mesh with one part covering all triangles.
     pub fn from_triangles(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
-        let parts = vec![Part { name: "mesh".into(), triangles: 0..triangles.len() as u32 }];
-        Mesh { positions, colors: None, normals: None, triangles, parts }
+        let parts = vec![Part {
+            name: "mesh".into(),
+            triangles: 0..triangles.len() as u32,
+        }];
+        Mesh {
+            positions,
+            colors: None,
+            normals: None,
+            triangles,
+            parts,
+        }
     }
 
     /// Checks the structural invariants every loader and [`clean`] guarantee.
@@ -142,7 +151,12 @@ pub fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh, InputErr
     });
     let mesh = match result {
         Ok(r) => r?,
-        Err(_) => return Err(InputError::whole(path, "the parser failed on this input (internal error)")),
+        Err(_) => {
+            return Err(InputError::whole(
+                path,
+                "the parser failed on this input (internal error)",
+            ));
+        }
     };
     if mesh.triangles.is_empty() {
         return Err(InputError::whole(path, "the mesh has no faces"));
@@ -154,20 +168,29 @@ pub fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh, InputErr
 /// Reads, parses and cleans a mesh file (`.obj`, `.ply`, `.off`, optionally `.xz`-compressed).
 pub fn load(path: &Path, options: &CleanOptions) -> Result<(Mesh, CleanReport), InputError> {
     let format = Format::from_path(path).ok_or_else(|| {
-        InputError::whole(path, "unknown mesh format: expected a .obj, .ply or .off file (optionally .xz)")
+        InputError::whole(
+            path,
+            "unknown mesh format: expected a .obj, .ply or .off file (optionally .xz)",
+        )
     })?;
     let bytes = read_maybe_xz(path)?;
     let raw = parse(&bytes, format, path)?;
     let (mesh, report) = clean(raw, options);
     if mesh.triangles.is_empty() {
-        return Err(InputError::whole(path, "every face is degenerate: nothing is left to build"));
+        return Err(InputError::whole(
+            path,
+            "every face is degenerate: nothing is left to build",
+        ));
     }
     Ok((mesh, report))
 }
 
 fn read_maybe_xz(path: &Path) -> Result<Vec<u8>, InputError> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::whole(path, format!("cannot read: {e}")))?;
-    let is_xz = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xz"));
+    let bytes =
+        std::fs::read(path).map_err(|e| InputError::whole(path, format!("cannot read: {e}")))?;
+    let is_xz = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xz"));
     if !is_xz {
         return Ok(bytes);
     }

@@ -34,10 +34,18 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         let m = &model.mesh;
         let base = mesh.positions.len() as u32;
         let count = m.positions.len() / 3;
-        mesh.positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
         if has_colors {
             if m.vertex_color.len() == m.positions.len() {
-                colors.extend(m.vertex_color.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+                colors.extend(
+                    m.vertex_color
+                        .chunks_exact(3)
+                        .map(|c| Vec3::new(c[0], c[1], c[2])),
+                );
             } else {
                 colors.extend(std::iter::repeat_n(Vec3::ONE, count));
             }
@@ -59,13 +67,19 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         let start = mesh.triangles.len() as u32;
         for t in m.indices.chunks_exact(3) {
             if t.iter().any(|&i| i as usize >= count) {
-                return Err(InputError::whole(path, "OBJ face index out of range after triangulation"));
+                return Err(InputError::whole(
+                    path,
+                    "OBJ face index out of range after triangulation",
+                ));
             }
             mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
         }
         let end = mesh.triangles.len() as u32;
         if end > start {
-            mesh.parts.push(Part { name: model.name.clone(), triangles: start..end });
+            mesh.parts.push(Part {
+                name: model.name.clone(),
+                triangles: start..end,
+            });
         }
     }
     mesh.colors = has_colors.then_some(colors);
@@ -76,8 +90,15 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
 /// Checks every `v`, `vn`, `vt` and `f` record; returns the first problem with its line number.
 fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
     let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
-        InputError::line(path, line, "not valid UTF-8 text: is this really an OBJ file?")
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        InputError::line(
+            path,
+            line,
+            "not valid UTF-8 text: is this really an OBJ file?",
+        )
     })?;
     let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
     // Positive indices may refer forward; they are checked against the final counts at the end.
@@ -85,18 +106,40 @@ fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let mut tokens = raw.split_whitespace();
-        let Some(keyword) = tokens.next() else { continue };
+        let Some(keyword) = tokens.next() else {
+            continue;
+        };
         let rest: Vec<&str> = tokens.collect();
         let floats = |min: usize, max: usize, what: &str| -> Result<(), InputError> {
             if rest.len() < min || rest.len() > max {
-                let want = if min == max { format!("{min}") } else { format!("{min} to {max}") };
-                return Err(InputError::line(path, line, format!("{what}: expected {want} numbers, found {}", rest.len())));
+                let want = if min == max {
+                    format!("{min}")
+                } else {
+                    format!("{min} to {max}")
+                };
+                return Err(InputError::line(
+                    path,
+                    line,
+                    format!("{what}: expected {want} numbers, found {}", rest.len()),
+                ));
             }
             for tok in &rest {
                 match tok.parse::<f32>() {
                     Ok(x) if x.is_finite() => {}
-                    Ok(_) => return Err(InputError::line(path, line, format!("{what}: coordinate {tok:?} is not finite"))),
-                    Err(_) => return Err(InputError::line(path, line, format!("{what}: {tok:?} is not a number"))),
+                    Ok(_) => {
+                        return Err(InputError::line(
+                            path,
+                            line,
+                            format!("{what}: coordinate {tok:?} is not finite"),
+                        ));
+                    }
+                    Err(_) => {
+                        return Err(InputError::line(
+                            path,
+                            line,
+                            format!("{what}: {tok:?} is not a number"),
+                        ));
+                    }
                 }
             }
             Ok(())
@@ -105,7 +148,11 @@ fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
             "v" => {
                 floats(3, 7, "vertex")?;
                 if rest.len() == 5 {
-                    return Err(InputError::line(path, line, "vertex: expected x y z [w] or x y z r g b, found 5 numbers"));
+                    return Err(InputError::line(
+                        path,
+                        line,
+                        "vertex: expected x y z [w] or x y z r g b, found 5 numbers",
+                    ));
                 }
                 nv += 1;
             }
@@ -119,12 +166,20 @@ fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
             }
             "f" => {
                 if rest.len() < 3 {
-                    return Err(InputError::line(path, line, format!("face: needs at least 3 vertices, found {}", rest.len())));
+                    return Err(InputError::line(
+                        path,
+                        line,
+                        format!("face: needs at least 3 vertices, found {}", rest.len()),
+                    ));
                 }
                 for tok in &rest {
                     let parts: Vec<&str> = tok.split('/').collect();
                     if parts.len() > 3 || parts[0].is_empty() {
-                        return Err(InputError::line(path, line, format!("face: malformed vertex reference {tok:?}")));
+                        return Err(InputError::line(
+                            path,
+                            line,
+                            format!("face: malformed vertex reference {tok:?}"),
+                        ));
                     }
                     let counts = [nv, nvt, nvn];
                     for (k, part) in parts.iter().enumerate() {
@@ -132,18 +187,30 @@ fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
                             continue;
                         }
                         let idx: i64 = part.parse().map_err(|_| {
-                            InputError::line(path, line, format!("face: index {part:?} in {tok:?} is not an integer"))
+                            InputError::line(
+                                path,
+                                line,
+                                format!("face: index {part:?} in {tok:?} is not an integer"),
+                            )
                         })?;
                         let kind = ["vertex", "texture coordinate", "normal"][k];
                         if idx == 0 {
-                            return Err(InputError::line(path, line, format!("face: {kind} index 0 (OBJ indices start at 1)")));
+                            return Err(InputError::line(
+                                path,
+                                line,
+                                format!("face: {kind} index 0 (OBJ indices start at 1)"),
+                            ));
                         }
                         if idx < 0 {
                             if idx.unsigned_abs() as usize > counts[k] {
-                                return Err(InputError::line(path, line, format!(
-                                    "face: relative {kind} index {idx} reaches before the first of {} defined so far",
-                                    counts[k]
-                                )));
+                                return Err(InputError::line(
+                                    path,
+                                    line,
+                                    format!(
+                                        "face: relative {kind} index {idx} reaches before the first of {} defined so far",
+                                        counts[k]
+                                    ),
+                                ));
                             }
                         } else if idx as usize > max_ref[k].0 {
                             max_ref[k] = (idx as usize, line);
@@ -158,7 +225,11 @@ fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
         let (idx, line) = max_ref[k];
         if idx > total {
             let kind = ["vertex", "texture coordinate", "normal"][k];
-            return Err(InputError::line(path, line, format!("face: {kind} index {idx} is out of range (the file has {total})")));
+            return Err(InputError::line(
+                path,
+                line,
+                format!("face: {kind} index {idx} is out of range (the file has {total})"),
+            ));
         }
     }
     Ok(())

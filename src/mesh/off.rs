@@ -25,48 +25,99 @@ impl<'a> Lines<'a> {
 
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
-        InputError::line(path, line, "not valid UTF-8 text (binary OFF is not supported)")
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        InputError::line(
+            path,
+            line,
+            "not valid UTF-8 text (binary OFF is not supported)",
+        )
     })?;
-    let mut lines = Lines { inner: text.lines().enumerate() };
-    let eof = |what: &str| InputError::whole(path, format!("unexpected end of file: expected {what}"));
+    let mut lines = Lines {
+        inner: text.lines().enumerate(),
+    };
+    let eof =
+        |what: &str| InputError::whole(path, format!("unexpected end of file: expected {what}"));
 
     let (line, mut tokens) = lines.next_content().ok_or_else(|| eof("the OFF header"))?;
     let keyword = tokens.remove(0);
     let colored = match keyword {
         "OFF" => false,
         "COFF" => true,
-        _ => return Err(InputError::line(path, line, format!("expected OFF or COFF header, found {keyword:?}"))),
+        _ => {
+            return Err(InputError::line(
+                path,
+                line,
+                format!("expected OFF or COFF header, found {keyword:?}"),
+            ));
+        }
     };
     // The counts may follow the keyword on the same line.
-    let (line, counts) = if tokens.is_empty() { lines.next_content().ok_or_else(|| eof("vertex and face counts"))? } else { (line, tokens) };
+    let (line, counts) = if tokens.is_empty() {
+        lines
+            .next_content()
+            .ok_or_else(|| eof("vertex and face counts"))?
+    } else {
+        (line, tokens)
+    };
     if counts.len() < 2 {
-        return Err(InputError::line(path, line, "expected the vertex and face counts"));
+        return Err(InputError::line(
+            path,
+            line,
+            "expected the vertex and face counts",
+        ));
     }
     let count = |tok: &str, what: &str| -> Result<usize, InputError> {
-        tok.parse::<usize>().map_err(|_| InputError::line(path, line, format!("{what} count {tok:?} is not a non-negative integer")))
+        tok.parse::<usize>().map_err(|_| {
+            InputError::line(
+                path,
+                line,
+                format!("{what} count {tok:?} is not a non-negative integer"),
+            )
+        })
     };
     let nv = count(counts[0], "vertex")?;
     let nf = count(counts[1], "face")?;
     // Every record takes at least one line, so a count past the line total is a lie; never allocate from it.
     let budget = text.len() / 2 + 1;
     if nv > budget || nf > budget {
-        return Err(InputError::line(path, line, format!("counts {nv} vertices / {nf} faces exceed what a file of {} bytes can hold", text.len())));
+        return Err(InputError::line(
+            path,
+            line,
+            format!(
+                "counts {nv} vertices / {nf} faces exceed what a file of {} bytes can hold",
+                text.len()
+            ),
+        ));
     }
 
     let mut positions = Vec::with_capacity(nv);
     let mut colors = Vec::new();
     for k in 0..nv {
-        let (line, t) = lines.next_content().ok_or_else(|| eof(&format!("vertex {} of {nv}", k + 1)))?;
+        let (line, t) = lines
+            .next_content()
+            .ok_or_else(|| eof(&format!("vertex {} of {nv}", k + 1)))?;
         let want = if colored { 6 } else { 3 };
         if t.len() < want {
-            return Err(InputError::line(path, line, format!("vertex: expected {want} numbers, found {}", t.len())));
+            return Err(InputError::line(
+                path,
+                line,
+                format!("vertex: expected {want} numbers, found {}", t.len()),
+            ));
         }
         let mut v = [0f32; 7];
         for (slot, tok) in v.iter_mut().zip(t.iter().take(want)) {
-            *slot = tok.parse::<f32>().map_err(|_| InputError::line(path, line, format!("vertex: {tok:?} is not a number")))?;
+            *slot = tok.parse::<f32>().map_err(|_| {
+                InputError::line(path, line, format!("vertex: {tok:?} is not a number"))
+            })?;
             if !slot.is_finite() {
-                return Err(InputError::line(path, line, format!("vertex: coordinate {tok:?} is not finite")));
+                return Err(InputError::line(
+                    path,
+                    line,
+                    format!("vertex: coordinate {tok:?} is not finite"),
+                ));
             }
         }
         positions.push(Vec3::new(v[0], v[1], v[2]));
@@ -78,16 +129,41 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     }
     let mut triangles = Vec::with_capacity(nf);
     for k in 0..nf {
-        let (line, t) = lines.next_content().ok_or_else(|| eof(&format!("face {} of {nf}", k + 1)))?;
-        let n: usize = t[0].parse().map_err(|_| InputError::line(path, line, format!("face: vertex count {:?} is not an integer", t[0])))?;
+        let (line, t) = lines
+            .next_content()
+            .ok_or_else(|| eof(&format!("face {} of {nf}", k + 1)))?;
+        let n: usize = t[0].parse().map_err(|_| {
+            InputError::line(
+                path,
+                line,
+                format!("face: vertex count {:?} is not an integer", t[0]),
+            )
+        })?;
         if n < 3 || t.len() < 1 + n {
-            return Err(InputError::line(path, line, format!("face: expected at least 3 vertex indices after the count, found {}", t.len() - 1)));
+            return Err(InputError::line(
+                path,
+                line,
+                format!(
+                    "face: expected at least 3 vertex indices after the count, found {}",
+                    t.len() - 1
+                ),
+            ));
         }
         let mut idx = Vec::with_capacity(n);
         for tok in &t[1..=n] {
-            let i: usize = tok.parse().map_err(|_| InputError::line(path, line, format!("face: index {tok:?} is not a non-negative integer")))?;
+            let i: usize = tok.parse().map_err(|_| {
+                InputError::line(
+                    path,
+                    line,
+                    format!("face: index {tok:?} is not a non-negative integer"),
+                )
+            })?;
             if i >= nv {
-                return Err(InputError::line(path, line, format!("face: vertex index {i} is out of range (the file has {nv} vertices)")));
+                return Err(InputError::line(
+                    path,
+                    line,
+                    format!("face: vertex index {i} is out of range (the file has {nv} vertices)"),
+                ));
             }
             idx.push(i as u32);
         }
@@ -96,6 +172,15 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             triangles.push([idx[0], idx[j], idx[j + 1]]);
         }
     }
-    let parts = vec![Part { name: "mesh".into(), triangles: 0..triangles.len() as u32 }];
-    Ok(Mesh { positions, colors: colored.then_some(colors), normals: None, triangles, parts })
+    let parts = vec![Part {
+        name: "mesh".into(),
+        triangles: 0..triangles.len() as u32,
+    }];
+    Ok(Mesh {
+        positions,
+        colors: colored.then_some(colors),
+        normals: None,
+        triangles,
+        parts,
+    })
 }

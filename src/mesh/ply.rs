@@ -72,13 +72,16 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     if !bytes.starts_with(b"ply") {
         return Err(InputError::byte(path, 0, "missing the 'ply' magic line"));
     }
-    let header_len = find_header_end(bytes).ok_or_else(|| InputError::whole(path, "no 'end_header' line: the header is truncated"))?;
+    let header_len = find_header_end(bytes)
+        .ok_or_else(|| InputError::whole(path, "no 'end_header' line: the header is truncated"))?;
     let header_lines = bytes[..header_len].iter().filter(|&&b| b == b'\n').count();
     let parser = Parser::<DefaultElement>::new();
-    let header = parser.read_ply_header(&mut &bytes[..header_len]).map_err(|e| match e.line() {
-        Some(line) => InputError::line(path, line, format!("bad PLY header: {e}")),
-        None => InputError::whole(path, format!("bad PLY header: {e}")),
-    })?;
+    let header = parser
+        .read_ply_header(&mut &bytes[..header_len])
+        .map_err(|e| match e.line() {
+            Some(line) => InputError::line(path, line, format!("bad PLY header: {e}")),
+            None => InputError::whole(path, format!("bad PLY header: {e}")),
+        })?;
 
     let elements: Vec<&ElementDef> = header.elements.values().collect();
     let binary = header.encoding != Encoding::Ascii;
@@ -90,18 +93,38 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let mut min_total = 0u64;
     for e in &elements {
         let (size, fixed) = record_size(e);
-        starts.push(if binary { offset.map(|o| (o, size, fixed)) } else { Some((line, 1, true)) });
+        starts.push(if binary {
+            offset.map(|o| (o, size, fixed))
+        } else {
+            Some((line, 1, true))
+        });
         let count = e.count as u64;
-        min_total = min_total.saturating_add(if binary { count.saturating_mul(size) } else { count.saturating_mul(2) });
+        min_total = min_total.saturating_add(if binary {
+            count.saturating_mul(size)
+        } else {
+            count.saturating_mul(2)
+        });
         if min_total > payload_len {
             let at = header_len as u64 + payload_len;
-            let what = if binary { format!("at least {min_total} bytes") } else { format!("{count} more lines") };
-            return Err(InputError::byte(path, at, format!(
-                "truncated file: element '{}' ({count} records) needs {what} of payload after the {header_len}-byte header, the file ends here",
-                e.name
-            )));
+            let what = if binary {
+                format!("at least {min_total} bytes")
+            } else {
+                format!("{count} more lines")
+            };
+            return Err(InputError::byte(
+                path,
+                at,
+                format!(
+                    "truncated file: element '{}' ({count} records) needs {what} of payload after the {header_len}-byte header, the file ends here",
+                    e.name
+                ),
+            ));
         }
-        offset = if fixed { offset.map(|o| o + count * size) } else { None };
+        offset = if fixed {
+            offset.map(|o| o + count * size)
+        } else {
+            None
+        };
         line += count;
     }
     let locate = |element: usize, k: usize| -> Location {
@@ -112,20 +135,36 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         }
     };
 
-    let ply = parser.read_ply(&mut &bytes[..]).map_err(|e| match (e.line(), binary) {
-        (Some(line), false) => InputError::line(path, line, format!("bad PLY data: {e}")),
-        _ => InputError::byte(path, header_len as u64, format!("bad PLY data in the payload that starts here: {e}")),
-    })?;
+    let ply = parser
+        .read_ply(&mut &bytes[..])
+        .map_err(|e| match (e.line(), binary) {
+            (Some(line), false) => InputError::line(path, line, format!("bad PLY data: {e}")),
+            _ => InputError::byte(
+                path,
+                header_len as u64,
+                format!("bad PLY data in the payload that starts here: {e}"),
+            ),
+        })?;
 
-    let vi = elements.iter().position(|e| e.name == "vertex").ok_or_else(|| InputError::whole(path, "no 'vertex' element"))?;
-    let fi = elements.iter().position(|e| e.name == "face").ok_or_else(|| InputError::whole(path, "no 'face' element"))?;
+    let vi = elements
+        .iter()
+        .position(|e| e.name == "vertex")
+        .ok_or_else(|| InputError::whole(path, "no 'vertex' element"))?;
+    let fi = elements
+        .iter()
+        .position(|e| e.name == "face")
+        .ok_or_else(|| InputError::whole(path, "no 'face' element"))?;
     let empty = Vec::new();
     let verts = ply.payload.get("vertex").unwrap_or(&empty);
     let faces = ply.payload.get("face").unwrap_or(&empty);
 
     let bad = |element: usize, k: usize, msg: String| {
         let loc = locate(element, k);
-        let what = if elements[element].name == "vertex" { "vertex" } else { "face" };
+        let what = if elements[element].name == "vertex" {
+            "vertex"
+        } else {
+            "face"
+        };
         let msg = match loc {
             Location::Whole => format!("{what} record {k}: {msg}"),
             _ => format!("{what}: {msg}"),
@@ -147,7 +186,10 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let get3 = |v: &DefaultElement, k: usize, names: [&str; 3]| -> Result<Vec3, InputError> {
         let mut out = [0f32; 3];
         for (slot, name) in out.iter_mut().zip(names) {
-            let x = v.get(name).and_then(as_f64).ok_or_else(|| bad(vi, k, format!("property '{name}' missing or not a number")))?;
+            let x = v
+                .get(name)
+                .and_then(as_f64)
+                .ok_or_else(|| bad(vi, k, format!("property '{name}' missing or not a number")))?;
             if !x.is_finite() {
                 return Err(bad(vi, k, format!("'{name}' = {x} is not finite")));
             }
@@ -172,16 +214,33 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             .and_then(as_indices)
             .ok_or_else(|| bad(fi, k, "no integer list 'vertex_indices'".into()))?;
         if idx.len() < 3 {
-            return Err(bad(fi, k, format!("a face needs at least 3 vertices, found {}", idx.len())));
+            return Err(bad(
+                fi,
+                k,
+                format!("a face needs at least 3 vertices, found {}", idx.len()),
+            ));
         }
-        if let Some(&i) = idx.iter().find(|&&i| i < 0 || i as usize >= positions.len()) {
-            return Err(bad(fi, k, format!("vertex index {i} is out of range (the file has {} vertices)", positions.len())));
+        if let Some(&i) = idx
+            .iter()
+            .find(|&&i| i < 0 || i as usize >= positions.len())
+        {
+            return Err(bad(
+                fi,
+                k,
+                format!(
+                    "vertex index {i} is out of range (the file has {} vertices)",
+                    positions.len()
+                ),
+            ));
         }
         for j in 1..idx.len() - 1 {
             triangles.push([idx[0] as u32, idx[j] as u32, idx[j + 1] as u32]);
         }
     }
-    let parts = vec![Part { name: "mesh".into(), triangles: 0..triangles.len() as u32 }];
+    let parts = vec![Part {
+        name: "mesh".into(),
+        triangles: 0..triangles.len() as u32,
+    }];
     Ok(Mesh {
         positions,
         colors: has_colors.then_some(colors),

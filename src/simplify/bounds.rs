@@ -12,7 +12,10 @@ pub struct Sphere {
 
 impl Sphere {
     pub fn point(p: Vec3) -> Sphere {
-        Sphere { center: p, radius: 0.0 }
+        Sphere {
+            center: p,
+            radius: 0.0,
+        }
     }
 
     pub fn contains(&self, p: Vec3, slack: f32) -> bool {
@@ -33,7 +36,10 @@ impl Sphere {
         // dist > 0 here: equal centres fall into one of the cases above.
         let center = self.center + d * ((radius - self.radius) / dist);
         // Round outwards so float error never leaves a child poking out.
-        Sphere { center, radius: radius * (1.0 + f32::EPSILON * 4.0) }
+        Sphere {
+            center,
+            radius: radius * (1.0 + f32::EPSILON * 4.0),
+        }
     }
 
     pub fn union_point(self, p: Vec3) -> Sphere {
@@ -50,8 +56,14 @@ pub struct NormalCone {
 }
 
 impl NormalCone {
-    pub const EMPTY: NormalCone = NormalCone { axis: Vec3::ZERO, cos_angle: 1.0 };
-    pub const FULL: NormalCone = NormalCone { axis: Vec3::Z, cos_angle: -1.0 };
+    pub const EMPTY: NormalCone = NormalCone {
+        axis: Vec3::ZERO,
+        cos_angle: 1.0,
+    };
+    pub const FULL: NormalCone = NormalCone {
+        axis: Vec3::Z,
+        cos_angle: -1.0,
+    };
 
     pub fn is_empty(&self) -> bool {
         self.axis == Vec3::ZERO
@@ -67,7 +79,9 @@ impl NormalCone {
 
     /// Does the cone hold direction `n` (unit), within `slack` radians?
     pub fn contains(&self, n: Vec3, slack: f32) -> bool {
-        self.is_full() || (!self.is_empty() && self.axis.dot(n).clamp(-1.0, 1.0).acos() <= self.angle() + slack)
+        self.is_full()
+            || (!self.is_empty()
+                && self.axis.dot(n).clamp(-1.0, 1.0).acos() <= self.angle() + slack)
     }
 
     /// The smallest cone holding both cones.
@@ -101,11 +115,21 @@ impl NormalCone {
             return NormalCone::FULL;
         }
         // Pad by a few ulps of angle so rounding never excludes a member.
-        NormalCone { axis, cos_angle: (t + 1e-5).cos() }
+        NormalCone {
+            axis,
+            cos_angle: (t + 1e-5).cos(),
+        }
     }
 
     pub fn union_normal(self, n: Vec3) -> NormalCone {
-        if n == Vec3::ZERO { self } else { self.union(NormalCone { axis: n, cos_angle: 1.0 }) }
+        if n == Vec3::ZERO {
+            self
+        } else {
+            self.union(NormalCone {
+                axis: n,
+                cos_angle: 1.0,
+            })
+        }
     }
 }
 
@@ -115,12 +139,24 @@ mod tests {
 
     #[test]
     fn sphere_union_contains_both() {
-        let a = Sphere { center: Vec3::ZERO, radius: 1.0 };
-        let b = Sphere { center: Vec3::new(4.0, 0.0, 0.0), radius: 1.0 };
+        let a = Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+        };
+        let b = Sphere {
+            center: Vec3::new(4.0, 0.0, 0.0),
+            radius: 1.0,
+        };
         let u = a.union(b);
         assert!((u.center - Vec3::new(2.0, 0.0, 0.0)).length() < 1e-6);
         assert!((u.radius - 3.0).abs() < 1e-5);
-        assert_eq!(a.union(Sphere { center: Vec3::X * 0.5, radius: 0.1 }), a);
+        assert_eq!(
+            a.union(Sphere {
+                center: Vec3::X * 0.5,
+                radius: 0.1
+            }),
+            a
+        );
     }
 
     #[test]
@@ -130,6 +166,10 @@ mod tests {
         assert!((c.cos_angle - (std::f32::consts::FRAC_PI_4 + 1e-5).cos()).abs() < 1e-5);
         assert!(c.contains(Vec3::Z, 1e-5) && c.contains(Vec3::X, 1e-5));
         assert!(!c.contains(Vec3::NEG_Z, 0.0));
-        assert!(c.union_normal(Vec3::NEG_X).union_normal(Vec3::NEG_Z).is_full());
+        assert!(
+            c.union_normal(Vec3::NEG_X)
+                .union_normal(Vec3::NEG_Z)
+                .is_full()
+        );
     }
 }

@@ -53,7 +53,10 @@ impl Collapser {
                 degree[v as usize] += 1;
             }
         }
-        let mut faces: Vec<Vec<u32>> = degree.iter().map(|&d| Vec::with_capacity(d as usize)).collect();
+        let mut faces: Vec<Vec<u32>> = degree
+            .iter()
+            .map(|&d| Vec::with_capacity(d as usize))
+            .collect();
         for (f, t) in triangles.iter().enumerate() {
             for &v in t {
                 faces[v as usize].push(f as u32);
@@ -105,7 +108,10 @@ impl Collapser {
 
     /// The live triangles around a live slot, as current slot corners.
     pub fn faces_of(&self, slot: u32) -> impl Iterator<Item = (u32, [u32; 3])> + Clone + '_ {
-        self.faces[slot as usize].iter().filter(|&&f| self.alive_face[f as usize]).map(|&f| (f, self.corners[f as usize]))
+        self.faces[slot as usize]
+            .iter()
+            .filter(|&&f| self.alive_face[f as usize])
+            .map(|&f| (f, self.corners[f as usize]))
     }
 
     /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once, in slot order.
@@ -114,7 +120,10 @@ impl Collapser {
         for (_, c) in self.faces_of(slot) {
             for v in c {
                 if v != slot {
-                    out.push(Neighbor { slot: v, edge: true });
+                    out.push(Neighbor {
+                        slot: v,
+                        edge: true,
+                    });
                 }
             }
         }
@@ -122,7 +131,10 @@ impl Collapser {
             let e = self.extras[slot as usize][i];
             let v = self.find(e & SLOT_MASK);
             if v != slot {
-                out.push(Neighbor { slot: v, edge: e & LOOSE_EDGE != 0 });
+                out.push(Neighbor {
+                    slot: v,
+                    edge: e & LOOSE_EDGE != 0,
+                });
             }
         }
         // Edges sort before non-edges of the same slot, so dedup keeps the edge.
@@ -151,7 +163,11 @@ impl Collapser {
                 // stay a candidate even if no other triangle carries that edge.
                 self.alive_face[fi] = false;
                 removed.push((f, Vanish::Degenerate));
-                let other = c.iter().copied().find(|&v| v != a && v != b).expect("a triangle has 3 distinct corners");
+                let other = c
+                    .iter()
+                    .copied()
+                    .find(|&v| v != a && v != b)
+                    .expect("a triangle has 3 distinct corners");
                 self.extras[ai].push(other | LOOSE_EDGE);
                 self.extras[other as usize].push(a | LOOSE_EDGE);
                 continue;
@@ -209,7 +225,13 @@ impl Collapser {
                 }
                 let q = c.map(|v| self.positions[v as usize]);
                 let before = (q[1] - q[0]).cross(q[2] - q[0]);
-                let moved = c.map(|v| if v == a || v == b { p } else { self.positions[v as usize] });
+                let moved = c.map(|v| {
+                    if v == a || v == b {
+                        p
+                    } else {
+                        self.positions[v as usize]
+                    }
+                });
                 let after = (moved[1] - moved[0]).cross(moved[2] - moved[0]);
                 if before.dot(after) < 0.0 {
                     return true;
@@ -254,13 +276,37 @@ mod tests {
         let mut removed = Vec::new();
         c.unify(2, 3, Vec3::new(1.5, 0.0, 0.5), &mut removed);
         removed.sort_unstable_by_key(|r| r.0);
-        assert_eq!(removed, vec![(1, Vanish::Coincident), (2, Vanish::Degenerate), (3, Vanish::Degenerate)]);
+        assert_eq!(
+            removed,
+            vec![
+                (1, Vanish::Coincident),
+                (2, Vanish::Degenerate),
+                (3, Vanish::Degenerate)
+            ]
+        );
         assert_eq!(c.live_count(), 6);
-        let left: Vec<_> = (0..7).filter(|&s| c.is_live(s)).flat_map(|s| c.faces_of(s).map(|f| f.0).collect::<Vec<_>>()).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+        let left: Vec<_> = (0..7)
+            .filter(|&s| c.is_live(s))
+            .flat_map(|s| c.faces_of(s).map(|f| f.0).collect::<Vec<_>>())
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
         assert_eq!(left, vec![0, 4]);
         let mut n = Vec::new();
         c.neighbors(2, &mut n);
-        assert_eq!(n, vec![Neighbor { slot: 0, edge: true }, Neighbor { slot: 1, edge: true }]);
+        assert_eq!(
+            n,
+            vec![
+                Neighbor {
+                    slot: 0,
+                    edge: true
+                },
+                Neighbor {
+                    slot: 1,
+                    edge: true
+                }
+            ]
+        );
         // Vertex 3 was merged into 2: g(3) = 2.
         assert_eq!(c.find(3), 2);
     }
@@ -274,17 +320,33 @@ mod tests {
     /// ```
     #[test]
     fn merge_without_an_edge_changes_topology() {
-        let p = vec![Vec3::ZERO, Vec3::Y, Vec3::X, Vec3::X * 1.1, Vec3::new(2.0, 1.0, 0.0), Vec3::X * 2.0];
+        let p = vec![
+            Vec3::ZERO,
+            Vec3::Y,
+            Vec3::X,
+            Vec3::X * 1.1,
+            Vec3::new(2.0, 1.0, 0.0),
+            Vec3::X * 2.0,
+        ];
         let mut c = Collapser::new(p, &[[0, 2, 1], [3, 5, 4]]);
         c.add_proximity_pair(2, 3);
         let mut n = Vec::new();
         c.neighbors(2, &mut n);
-        assert_eq!(n[2], Neighbor { slot: 3, edge: false });
+        assert_eq!(
+            n[2],
+            Neighbor {
+                slot: 3,
+                edge: false
+            }
+        );
         let mut removed = Vec::new();
         c.unify(2, 3, Vec3::X * 1.05, &mut removed);
         assert!(removed.is_empty());
         c.neighbors(2, &mut n);
-        assert_eq!(n.iter().map(|n| n.slot).collect::<Vec<_>>(), vec![0, 1, 4, 5]);
+        assert_eq!(
+            n.iter().map(|n| n.slot).collect::<Vec<_>>(),
+            vec![0, 1, 4, 5]
+        );
         assert!(n.iter().all(|n| n.edge));
     }
 
@@ -297,8 +359,20 @@ mod tests {
         assert_eq!(removed, vec![(0, Vanish::Degenerate)]);
         let mut n = Vec::new();
         c.neighbors(0, &mut n);
-        assert_eq!(n, vec![Neighbor { slot: 2, edge: true }]);
+        assert_eq!(
+            n,
+            vec![Neighbor {
+                slot: 2,
+                edge: true
+            }]
+        );
         c.neighbors(2, &mut n);
-        assert_eq!(n, vec![Neighbor { slot: 0, edge: true }]);
+        assert_eq!(
+            n,
+            vec![Neighbor {
+                slot: 0,
+                edge: true
+            }]
+        );
     }
 }

@@ -88,7 +88,10 @@ pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: 
             }
             _ => true, // non-manifold
         };
-        let (pu, pv) = (positions[u as usize].as_dvec3(), positions[v as usize].as_dvec3());
+        let (pu, pv) = (
+            positions[u as usize].as_dvec3(),
+            positions[v as usize].as_dvec3(),
+        );
         total_len += (pu - pv).length();
         if feature {
             feature_count[u as usize] += 1;
@@ -117,8 +120,18 @@ pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: 
             _ => CORNER_WEIGHT,
         })
         .collect();
-    let mean_edge_length = if edges.is_empty() { 1.0 } else { (total_len / edges.len() as f64) as f32 };
-    Features { edges, is_feature, vertex_weight, quadrics, mean_edge_length }
+    let mean_edge_length = if edges.is_empty() {
+        1.0
+    } else {
+        (total_len / edges.len() as f64) as f32
+    };
+    Features {
+        edges,
+        is_feature,
+        vertex_weight,
+        quadrics,
+        mean_edge_length,
+    }
 }
 
 #[cfg(test)]
@@ -135,14 +148,25 @@ mod tests {
     /// ```
     #[test]
     fn right_angle_fold_is_sharp_under_120_but_not_under_60() {
-        let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.5, 1.0, 0.0), Vec3::new(0.5, 0.0, 1.0)];
+        let p = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(0.5, 1.0, 0.0),
+            Vec3::new(0.5, 0.0, 1.0),
+        ];
         let t = [[0, 1, 2], [1, 0, 3]];
         let f = classify(&p, &t, 120.0);
         assert_eq!(f.edges, vec![(0, 1), (0, 2), (0, 3), (1, 2), (1, 3)]);
         assert_eq!(f.is_feature, vec![true; 5]);
-        assert_eq!(f.vertex_weight, vec![CORNER_WEIGHT, CORNER_WEIGHT, CREASE_WEIGHT, CREASE_WEIGHT]);
+        assert_eq!(
+            f.vertex_weight,
+            vec![CORNER_WEIGHT, CORNER_WEIGHT, CREASE_WEIGHT, CREASE_WEIGHT]
+        );
         let f = classify(&p, &t, 60.0);
         assert_eq!(f.is_feature, vec![false, true, true, true, true]);
-        assert_eq!(f.vertex_weight, vec![CREASE_WEIGHT, CREASE_WEIGHT, CREASE_WEIGHT, CREASE_WEIGHT]);
+        assert_eq!(
+            f.vertex_weight,
+            vec![CREASE_WEIGHT, CREASE_WEIGHT, CREASE_WEIGHT, CREASE_WEIGHT]
+        );
     }
 }

@@ -4,7 +4,17 @@ use super::features::{CREASE_WEIGHT, DART_WEIGHT};
 use super::quadric::Quadric;
 use glam::Vec3;
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 pub enum Metric {
     /// Garland–Heckbert quadrics, vertex at the quadric's optimum (seed 003, method 3).
     #[default]
@@ -22,7 +32,14 @@ impl Metric {
         self as u32
     }
     pub fn from_code(code: u32) -> Option<Metric> {
-        [Metric::Qem, Metric::QemMidpoint, Metric::EdgeLength, Metric::Hybrid].get(code as usize).copied()
+        [
+            Metric::Qem,
+            Metric::QemMidpoint,
+            Metric::EdgeLength,
+            Metric::Hybrid,
+        ]
+        .get(code as usize)
+        .copied()
     }
     pub fn name(self) -> &'static str {
         ["qem", "qem-midpoint", "edge-length", "hybrid"][self as usize]
@@ -39,6 +56,12 @@ pub const NO_EDGE_PAIR: f32 = 10.0;
 /// most QEM codes clamp similarly).
 const PLACEMENT_REACH: f64 = 2.0;
 
+/// Weight of the squared pair length added to quadric costs. On flat regions (CAD faces) every merge
+/// costs zero and greedy order degenerates into one hub vertex swallowing its whole face, one merge at
+/// a time: a tree thousands of levels deep. Preferring short pairs among equals keeps the tree balanced
+/// and leaves non-zero costs practically untouched.
+const TIE_BREAK: f64 = 1e-3;
+
 /// Hybrid-metric weights (seed 001 eq. 2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HybridWeights {
@@ -50,7 +73,10 @@ pub struct HybridWeights {
 
 impl Default for HybridWeights {
     fn default() -> Self {
-        HybridWeights { distance: 1.0, feature: 1.0 }
+        HybridWeights {
+            distance: 1.0,
+            feature: 1.0,
+        }
     }
 }
 
@@ -73,7 +99,16 @@ pub struct Pricing<'a> {
 }
 
 impl Pricing<'_> {
-    pub fn price(&self, pa: Vec3, qa: &Quadric, a: u32, pb: Vec3, qb: &Quadric, b: u32, edge: bool) -> Candidate {
+    pub fn price(
+        &self,
+        pa: Vec3,
+        qa: &Quadric,
+        a: u32,
+        pb: Vec3,
+        qb: &Quadric,
+        b: u32,
+        edge: bool,
+    ) -> Candidate {
         let q = *qa + *qb;
         let (da, db) = (pa.as_dvec3(), pb.as_dvec3());
         let mid = 0.5 * (da + db);
@@ -87,16 +122,28 @@ impl Pricing<'_> {
                 let best = match q.optimum() {
                     Some(v) if v.distance(mid) <= reach.max(f64::EPSILON) => v,
                     // Ill-conditioned: the best of the two ends and the midpoint.
-                    _ => [da, db, mid].into_iter().min_by(|x, y| q.eval(*x).total_cmp(&q.eval(*y))).unwrap_or(mid),
+                    _ => [da, db, mid]
+                        .into_iter()
+                        .min_by(|x, y| q.eval(*x).total_cmp(&q.eval(*y)))
+                        .unwrap_or(mid),
                 };
-                (best, q.error(best) + no_edge)
+                (best, q.error(best) + no_edge + TIE_BREAK * gap2)
             }
-            Metric::QemMidpoint => (mid, q.error(mid) + no_edge),
+            Metric::QemMidpoint => (mid, q.error(mid) + no_edge + TIE_BREAK * gap2),
             Metric::EdgeLength => (mid, gap2 + no_edge),
             Metric::Hybrid => {
-                let (wa, wb) = (self.vertex_weight[a as usize], self.vertex_weight[b as usize]);
+                let (wa, wb) = (
+                    self.vertex_weight[a as usize],
+                    self.vertex_weight[b as usize],
+                );
                 // Keep the more featured vertex where it is (a corner stays a corner).
-                let position = if wa > wb { da } else if wb > wa { db } else { mid };
+                let position = if wa > wb {
+                    da
+                } else if wb > wa {
+                    db
+                } else {
+                    mid
+                };
                 let pair = if !edge {
                     NO_EDGE_PAIR
                 } else if wa >= DART_WEIGHT && wb >= DART_WEIGHT {
@@ -107,16 +154,29 @@ impl Pricing<'_> {
                 let unit = (self.mean_edge_length as f64).max(f64::MIN_POSITIVE);
                 let e_dist = gap2 / (unit * unit);
                 let e_feature = (wa + wb + pair) as f64;
-                (position, self.hybrid.distance as f64 * e_dist + self.hybrid.feature as f64 * e_feature)
+                (
+                    position,
+                    self.hybrid.distance as f64 * e_dist + self.hybrid.feature as f64 * e_feature,
+                )
             }
         };
-        let error = q.error(position).sqrt().max(if edge { 0.0 } else { 0.5 * gap2.sqrt() });
-        Candidate { cost, position: position.as_vec3(), error }
+        let error = q
+            .error(position)
+            .sqrt()
+            .max(if edge { 0.0 } else { 0.5 * gap2.sqrt() });
+        Candidate {
+            cost,
+            position: position.as_vec3(),
+            error,
+        }
     }
 }
 
 /// The merged vertex's Table 1 weight: a feature survives a merge.
 pub fn merged_weight(a: f32, b: f32) -> f32 {
-    a.max(b).max(if a >= DART_WEIGHT && b >= DART_WEIGHT { CREASE_WEIGHT } else { 0.0 })
+    a.max(b).max(if a >= DART_WEIGHT && b >= DART_WEIGHT {
+        CREASE_WEIGHT
+    } else {
+        0.0
+    })
 }
-

@@ -18,7 +18,8 @@ pub fn close_pairs(
     }
     let cell_of = |p: Vec3| -> [i64; 3] { (p / radius).floor().to_array().map(|x| x as i64) };
     // Points sorted by cell: a cell's members are one contiguous run, found by binary search.
-    let mut sorted: Vec<([i64; 3], u32, Vec3)> = points.iter().map(|&(id, p)| (cell_of(p), id, p)).collect();
+    let mut sorted: Vec<([i64; 3], u32, Vec3)> =
+        points.iter().map(|&(id, p)| (cell_of(p), id, p)).collect();
     sorted.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
     let r2 = radius * radius;
     let mut pairs: Vec<(u32, u32)> = sorted
@@ -44,7 +45,8 @@ pub fn close_pairs(
             }
             near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             near.truncate(max_per_point);
-            near.into_iter().map(move |(_, other)| (id.min(other), id.max(other)))
+            near.into_iter()
+                .map(move |(_, other)| (id.min(other), id.max(other)))
         })
         .collect();
     pairs.par_sort_unstable();
@@ -59,7 +61,12 @@ mod tests {
     #[test]
     fn finds_exactly_the_close_pairs() {
         // 0 and 1 are 0.5 apart, 2 is 0.9 from 1 and 1.4 from 0, 3 is far away.
-        let pts = [(0, Vec3::ZERO), (1, Vec3::X * 0.5), (2, Vec3::X * 1.4), (3, Vec3::splat(10.0))];
+        let pts = [
+            (0, Vec3::ZERO),
+            (1, Vec3::X * 0.5),
+            (2, Vec3::X * 1.4),
+            (3, Vec3::splat(10.0)),
+        ];
         assert_eq!(close_pairs(&pts, 1.0, 8, |_, _| true), vec![(0, 1), (1, 2)]);
         assert_eq!(close_pairs(&pts, 1.0, 8, |i, j| i + j != 1), vec![(1, 2)]);
         assert_eq!(close_pairs(&pts, 0.4, 8, |_, _| true), vec![]);
@@ -69,10 +76,14 @@ mod tests {
     fn matches_brute_force_on_random_points() {
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 40) as f32 / (1u64 << 24) as f32
         };
-        let pts: Vec<(u32, Vec3)> = (0..400).map(|i| (i, Vec3::new(rnd(), rnd(), rnd()) * 3.0 - 1.0)).collect();
+        let pts: Vec<(u32, Vec3)> = (0..400)
+            .map(|i| (i, Vec3::new(rnd(), rnd(), rnd()) * 3.0 - 1.0))
+            .collect();
         let got = close_pairs(&pts, 0.3, usize::MAX, |_, _| true);
         let mut want = Vec::new();
         for a in &pts {

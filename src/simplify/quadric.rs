@@ -68,7 +68,11 @@ impl Quadric {
     /// Mean squared distance to the planes: `vᵀQv / Σw`. This is what queues are ordered by, so a
     /// region's size does not by itself make its merges expensive.
     pub fn error(&self, v: DVec3) -> f64 {
-        if self.weight > 0.0 { self.eval(v) / self.weight } else { 0.0 }
+        if self.weight > 0.0 {
+            self.eval(v) / self.weight
+        } else {
+            0.0
+        }
     }
 
     /// The position minimising `vᵀQv`: solves `A v = −b` (seed 003's 4×4 system with its last row

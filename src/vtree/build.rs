@@ -28,8 +28,9 @@ pub struct BuildOptions {
     /// How merges are priced and placed. Default: `Qem`.
     pub metric: Metric,
     /// Non-edge pairs closer than this fraction of the bounding-box diagonal are candidates.
-    /// Default 0.005: wide enough to bridge the seams and gaps between the parts of scanned and CAD
-    /// scenes, narrow enough that a surface is not stitched to itself across a fold. 0 disables them.
+    /// Default 0.001: bridges the seams and hairline gaps between the parts of scanned and CAD scenes;
+    /// wider radii flood dense scans with pairs (0.005 gives the dragon 625k pairs and doubles the build
+    /// time) while separate parts are joined anyway once each has collapsed. 0 disables them.
     pub pair_distance: f32,
     /// At most this many nearest non-edge partners per vertex. Default 2: close pairs matter where
     /// two sheets meet, and there each vertex needs only its nearest few across the gap.
@@ -44,7 +45,7 @@ impl Default for BuildOptions {
     fn default() -> Self {
         BuildOptions {
             metric: Metric::Qem,
-            pair_distance: 0.005,
+            pair_distance: 0.001,
             max_pairs_per_vertex: 2,
             sharp_angle_deg: 120.0,
             hybrid: HybridWeights::default(),
@@ -66,6 +67,9 @@ pub struct BuildStats {
     pub flip_deferrals: u32,
     /// Times the queue ran dry with several roots and the pair radius was doubled.
     pub widenings: u32,
+    /// Queue entries pushed and popped (most pops are stale entries, skipped).
+    pub queue_pushes: u64,
+    pub queue_pops: u64,
     pub seconds: f64,
 }
 
@@ -94,7 +98,9 @@ const PROGRESS_EVERY: usize = 4096;
 /// A queued pair. Valid while both slots are live and neither changed after `created` (a merge count).
 #[derive(Clone, Copy, Debug)]
 struct Entry {
-    cost: f32,
+    /// `f32::to_bits` of a non-negative cost: for those, integer order is numeric order, and integer
+    /// compares keep the heap's sift loops cheap (they dominate the build's profile).
+    cost: u32,
     a: u32,
     b: u32,
     created: u32,
@@ -115,7 +121,22 @@ impl Ord for Entry {
     /// Reversed: `BinaryHeap` is a max-heap and the cheapest pair must come first. Ties break on the
     /// slots so that builds are deterministic.
     fn cmp(&self, o: &Self) -> Ordering {
-        o.cost.total_cmp(&self.cost).then(o.a.cmp(&self.a)).then(o.b.cmp(&self.b))
+        o.cost
+            .cmp(&self.cost)
+            .then(o.a.cmp(&self.a))
+            .then(o.b.cmp(&self.b))
+    }
+}
+
+/// The queue key of a cost (see [`Entry::cost`]); NaN, which a finite mesh never produces, sorts last.
+fn key(cost: f64) -> u32 {
+    let c = cost as f32;
+    if c >= 0.0 {
+        c.to_bits()
+    } else if c.is_nan() {
+        u32::MAX
+    } else {
+        0
     }
 }
 
@@ -124,14 +145,21 @@ fn cone_of(normals: impl Iterator<Item = Vec3> + Clone) -> NormalCone {
     let sum: Vec3 = normals.clone().sum();
     let axis = sum.normalize_or_zero();
     if axis == Vec3::ZERO {
-        return if normals.clone().next().is_some() { NormalCone::FULL } else { NormalCone::EMPTY };
+        return if normals.clone().next().is_some() {
+            NormalCone::FULL
+        } else {
+            NormalCone::EMPTY
+        };
     }
     let min_dot = normals.map(|n| n.dot(axis)).fold(1.0f32, f32::min);
     if min_dot <= -0.999 {
         return NormalCone::FULL;
     }
     // Pad by about 0.1° so rounding never leaves a member outside.
-    NormalCone { axis, cos_angle: (min_dot.clamp(-1.0, 1.0).acos() + 2e-3).cos() }
+    NormalCone {
+        axis,
+        cos_angle: (min_dot.clamp(-1.0, 1.0).acos() + 2e-3).cos(),
+    }
 }
 
 fn unit_normal(p: &[Vec3], c: [u32; 3]) -> Vec3 {
@@ -179,14 +207,27 @@ pub fn build(
                     radius = radius.max(p.distance(mesh.positions[w as usize]));
                 }
             }
-            let cone = cone_of(collapser.faces_of(v).map(|(_, c)| unit_normal(&mesh.positions, c)).filter(|n| *n != Vec3::ZERO));
-            (Sphere { center: p, radius }, cone, area, nsum.normalize_or_zero())
+            let cone = cone_of(
+                collapser
+                    .faces_of(v)
+                    .map(|(_, c)| unit_normal(&mesh.positions, c))
+                    .filter(|n| *n != Vec3::ZERO),
+            );
+            (
+                Sphere { center: p, radius },
+                cone,
+                area,
+                nsum.normalize_or_zero(),
+            )
         })
         .collect();
     let mut nodes: Vec<Node> = Vec::with_capacity(2 * n - 1);
     let mut mass: Vec<f32> = Vec::with_capacity(n);
     for (v, (sphere, cone, area, face_normal)) in leaf_data.into_iter().enumerate() {
-        let normal = mesh.normals.as_ref().map_or(face_normal, |ns| ns[v].normalize_or_zero());
+        let normal = mesh
+            .normals
+            .as_ref()
+            .map_or(face_normal, |ns| ns[v].normalize_or_zero());
         let color = mesh.colors.as_ref().map_or(Vec3::ONE, |cs| cs[v]);
         nodes.push(Node {
             position: mesh.positions[v].to_array(),
@@ -195,7 +236,12 @@ pub fn build(
             parent: NONE,
             normal: normal.to_array(),
             children: [NONE, NONE],
-            sphere: [sphere.center.x, sphere.center.y, sphere.center.z, sphere.radius],
+            sphere: [
+                sphere.center.x,
+                sphere.center.y,
+                sphere.center.z,
+                sphere.radius,
+            ],
             cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
         });
         mass.push(area);
@@ -209,8 +255,19 @@ pub fn build(
         vertex_weight: &[],
     };
     let price = |c: &Collapser, q: &[Quadric], w: &[f32], a: u32, b: u32, edge: bool| {
-        let pricing = Pricing { vertex_weight: w, ..pricing };
-        pricing.price(c.positions[a as usize], &q[a as usize], a, c.positions[b as usize], &q[b as usize], b, edge)
+        let pricing = Pricing {
+            vertex_weight: w,
+            ..pricing
+        };
+        pricing.price(
+            c.positions[a as usize],
+            &q[a as usize],
+            a,
+            c.positions[b as usize],
+            &q[b as usize],
+            b,
+            edge,
+        )
     };
 
     // 2. The initial queue: all edges, then close pairs outside each other's 2-ring.
@@ -224,20 +281,33 @@ pub fn build(
     let mut entries: Vec<Entry> = feats
         .edges
         .par_iter()
-        .map(|&(a, b)| Entry { cost: price(&collapser, &quadrics, &weights, a, b, true).cost as f32, a, b, created: 0 })
+        .map(|&(a, b)| Entry {
+            cost: key(price(&collapser, &quadrics, &weights, a, b, true).cost),
+            a,
+            b,
+            created: 0,
+        })
         .collect();
     if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
         let adjacency = Adjacency::new(n, &feats.edges);
-        let points: Vec<(u32, Vec3)> = mesh.positions.iter().enumerate().map(|(i, p)| (i as u32, *p)).collect();
-        let pairs = close_pairs(&points, options.pair_distance * diagonal, options.max_pairs_per_vertex, |i, j| {
-            !adjacency.within_two_rings(i, j)
-        });
+        let points: Vec<(u32, Vec3)> = mesh
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (i as u32, *p))
+            .collect();
+        let pairs = close_pairs(
+            &points,
+            options.pair_distance * diagonal,
+            options.max_pairs_per_vertex,
+            |i, j| !adjacency.within_two_rings(i, j),
+        );
         stats.proximity_pairs = pairs.len() as u32;
         for &(a, b) in &pairs {
             collapser.add_proximity_pair(a, b);
         }
         entries.par_extend(pairs.par_iter().map(|&(a, b)| Entry {
-            cost: price(&collapser, &quadrics, &weights, a, b, false).cost as f32,
+            cost: key(price(&collapser, &quadrics, &weights, a, b, false).cost),
             a,
             b: b | NO_EDGE,
             created: 0,
@@ -258,16 +328,28 @@ pub fn build(
     let total = n - 1;
     loop {
         while let Some(e) = heap.pop() {
+            stats.queue_pops += 1;
             let (mut a, mut b) = (e.a, e.b & SLOT);
-            if !collapser.is_live(a) || !collapser.is_live(b) || changed_at[a as usize] > e.created || changed_at[b as usize] > e.created {
+            if !collapser.is_live(a)
+                || !collapser.is_live(b)
+                || changed_at[a as usize] > e.created
+                || changed_at[b as usize] > e.created
+            {
                 continue; // stale
             }
             let edge = e.b & NO_EDGE == 0;
             let cand = price(&collapser, &quadrics, &weights, a, b, edge);
             if e.b & PENALIZED == 0 && collapser.flips(a, b, cand.position) {
-                let gap2 = collapser.positions[a as usize].distance_squared(collapser.positions[b as usize]) as f64;
-                let cost = (FLIP_PENALTY * cand.cost + 0.25 * gap2) as f32;
-                heap.push(Entry { cost, a, b: e.b | PENALIZED, created: merges });
+                let gap2 = collapser.positions[a as usize]
+                    .distance_squared(collapser.positions[b as usize])
+                    as f64;
+                let cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
+                heap.push(Entry {
+                    cost,
+                    a,
+                    b: e.b | PENALIZED,
+                    created: merges,
+                });
                 stats.flip_deferrals += 1;
                 continue;
             }
@@ -288,15 +370,37 @@ pub fn build(
             weights[ai] = merged_weight(weights[ai], weights[bi]);
             let (ms, mt) = (mass[ai], mass[bi]);
             mass[ai] = ms + mt;
-            let (fs, ft) = if ms + mt > 0.0 { (ms / (ms + mt), mt / (ms + mt)) } else { (0.5, 0.5) };
-            let blend = |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * fs + Vec3::from_array(y) * ft;
-            let sphere = Sphere { center: Vec3::from_slice(&ns.sphere), radius: ns.sphere[3] }
-                .union(Sphere { center: Vec3::from_slice(&nt.sphere), radius: nt.sphere[3] })
-                .union_point(cand.position);
-            let around = cone_of(collapser.faces_of(a).map(|(_, c)| unit_normal(&collapser.positions, c)).filter(|n| *n != Vec3::ZERO));
-            let cone = NormalCone { axis: Vec3::from_slice(&ns.cone), cos_angle: ns.cone[3] }
-                .union(NormalCone { axis: Vec3::from_slice(&nt.cone), cos_angle: nt.cone[3] })
-                .union(around);
+            let (fs, ft) = if ms + mt > 0.0 {
+                (ms / (ms + mt), mt / (ms + mt))
+            } else {
+                (0.5, 0.5)
+            };
+            let blend =
+                |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * fs + Vec3::from_array(y) * ft;
+            let sphere = Sphere {
+                center: Vec3::from_slice(&ns.sphere),
+                radius: ns.sphere[3],
+            }
+            .union(Sphere {
+                center: Vec3::from_slice(&nt.sphere),
+                radius: nt.sphere[3],
+            })
+            .union_point(cand.position);
+            let around = cone_of(
+                collapser
+                    .faces_of(a)
+                    .map(|(_, c)| unit_normal(&collapser.positions, c))
+                    .filter(|n| *n != Vec3::ZERO),
+            );
+            let cone = NormalCone {
+                axis: Vec3::from_slice(&ns.cone),
+                cos_angle: ns.cone[3],
+            }
+            .union(NormalCone {
+                axis: Vec3::from_slice(&nt.cone),
+                cos_angle: nt.cone[3],
+            })
+            .union(around);
             nodes.push(Node {
                 position: cand.position.to_array(),
                 error: (cand.error as f32).max(ns.error).max(nt.error),
@@ -304,7 +408,12 @@ pub fn build(
                 parent: NONE,
                 normal: blend(ns.normal, nt.normal).normalize_or_zero().to_array(),
                 children: [s as u32, t as u32],
-                sphere: [sphere.center.x, sphere.center.y, sphere.center.z, sphere.radius],
+                sphere: [
+                    sphere.center.x,
+                    sphere.center.y,
+                    sphere.center.z,
+                    sphere.radius,
+                ],
                 cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
             });
             node_of[ai] = u;
@@ -315,10 +424,16 @@ pub fn build(
 
             collapser.neighbors(a, &mut neighbors);
             for nb in &neighbors {
-                let cost = price(&collapser, &quadrics, &weights, a, nb.slot, nb.edge).cost as f32;
+                let cost = key(price(&collapser, &quadrics, &weights, a, nb.slot, nb.edge).cost);
                 let flags = if nb.edge { 0 } else { NO_EDGE };
-                heap.push(Entry { cost, a, b: nb.slot | flags, created: merges });
+                heap.push(Entry {
+                    cost,
+                    a,
+                    b: nb.slot | flags,
+                    created: merges,
+                });
             }
+            stats.queue_pushes += neighbors.len() as u64;
             if merges as usize % PROGRESS_EVERY == 0 {
                 progress(merges as usize, total);
             }
@@ -328,7 +443,10 @@ pub fn build(
         }
         // The queue ran dry with several isolated vertices left: bridge them.
         stats.widenings += 1;
-        let live: Vec<(u32, Vec3)> = collapser.live_slots().map(|s| (s, collapser.positions[s as usize])).collect();
+        let live: Vec<(u32, Vec3)> = collapser
+            .live_slots()
+            .map(|s| (s, collapser.positions[s as usize]))
+            .collect();
         let per_vertex = options.max_pairs_per_vertex.max(1);
         let pairs = loop {
             let pairs = close_pairs(&live, radius, per_vertex, |_, _| true);
@@ -339,8 +457,13 @@ pub fn build(
         };
         for &(a, b) in &pairs {
             collapser.add_proximity_pair(a, b);
-            let cost = price(&collapser, &quadrics, &weights, a, b, false).cost as f32;
-            heap.push(Entry { cost, a, b: b | NO_EDGE, created: merges });
+            let cost = key(price(&collapser, &quadrics, &weights, a, b, false).cost);
+            heap.push(Entry {
+                cost,
+                a,
+                b: b | NO_EDGE,
+                created: merges,
+            });
         }
     }
     progress(total, total);
@@ -353,7 +476,14 @@ pub fn build(
         metric: options.metric,
         has_colors: mesh.colors.is_some(),
         has_normals: mesh.normals.is_some(),
-        parts: mesh.parts.iter().map(|p| PartInfo { name: p.name.clone(), triangles: p.triangles.end - p.triangles.start }).collect(),
+        parts: mesh
+            .parts
+            .iter()
+            .map(|p| PartInfo {
+                name: p.name.clone(),
+                triangles: p.triangles.end - p.triangles.start,
+            })
+            .collect(),
     };
     stats.nodes = tree.nodes.len() as u32;
     stats.depth = tree.depth();

@@ -14,10 +14,20 @@ pub fn check(tree: &VertexTree) -> Result<(), String> {
         return Err("the tree has no leaves".into());
     }
     if count != 2 * n - 1 {
-        return Err(format!("{count} nodes for {n} leaves: a binary tree with one root has {}", 2 * n - 1));
+        return Err(format!(
+            "{count} nodes for {n} leaves: a binary tree with one root has {}",
+            2 * n - 1
+        ));
     }
     for (u, node) in tree.nodes.iter().enumerate() {
-        let finite = node.position.iter().chain(&node.color).chain(&node.normal).chain(&node.sphere).chain(&node.cone).all(|x| x.is_finite());
+        let finite = node
+            .position
+            .iter()
+            .chain(&node.color)
+            .chain(&node.normal)
+            .chain(&node.sphere)
+            .chain(&node.cone)
+            .all(|x| x.is_finite());
         if !finite || !node.error.is_finite() || node.error < 0.0 || node.sphere[3] < 0.0 {
             return Err(format!("node {u} has a non-finite or negative value"));
         }
@@ -28,39 +38,63 @@ pub fn check(tree: &VertexTree) -> Result<(), String> {
         } else {
             let [s, t] = node.children;
             if s == t || s as usize >= u || t as usize >= u {
-                return Err(format!("node {u} has children {s}, {t}: they must be distinct and built before it"));
+                return Err(format!(
+                    "node {u} has children {s}, {t}: they must be distinct and built before it"
+                ));
             }
             for c in [s, t] {
                 let child = &tree.nodes[c as usize];
                 if child.parent as usize != u {
-                    return Err(format!("node {c} is a child of {u} but names {} as its parent", child.parent));
+                    return Err(format!(
+                        "node {c} is a child of {u} but names {} as its parent",
+                        child.parent
+                    ));
                 }
                 if child.error > node.error {
-                    return Err(format!("error decreases upwards: node {c} has {} under node {u} with {}", child.error, node.error));
+                    return Err(format!(
+                        "error decreases upwards: node {c} has {} under node {u} with {}",
+                        child.error, node.error
+                    ));
                 }
-                let (cu, cc) = (Vec3::from_slice(&node.sphere), Vec3::from_slice(&child.sphere));
+                let (cu, cc) = (
+                    Vec3::from_slice(&node.sphere),
+                    Vec3::from_slice(&child.sphere),
+                );
                 let slack = 1e-5 * (node.sphere[3] + cu.abs().max_element() + 1e-6);
                 if cu.distance(cc) + child.sphere[3] > node.sphere[3] + slack {
-                    return Err(format!("the sphere of node {u} does not contain that of its child {c}"));
+                    return Err(format!(
+                        "the sphere of node {u} does not contain that of its child {c}"
+                    ));
                 }
             }
             if !tree.nodes[u].sphere_contains(node.position()) {
-                return Err(format!("the sphere of node {u} does not contain its own position"));
+                return Err(format!(
+                    "the sphere of node {u} does not contain its own position"
+                ));
             }
         }
         let p = node.parent;
         if u + 1 == count {
             if p != NONE {
-                return Err(format!("the last node {u} must be the root, but has parent {p}"));
+                return Err(format!(
+                    "the last node {u} must be the root, but has parent {p}"
+                ));
             }
         } else if p == NONE || p as usize <= u || p as usize >= count {
-            return Err(format!("node {u} has parent {p}: every node but the root has a later parent"));
+            return Err(format!(
+                "node {u} has parent {p}: every node but the root has a later parent"
+            ));
         } else if !tree.nodes[p as usize].children.contains(&(u as u32)) {
-            return Err(format!("node {u} names {p} as parent, which does not list it as a child"));
+            return Err(format!(
+                "node {u} names {p} as parent, which does not list it as a child"
+            ));
         }
     }
     let offsets = &tree.vanish_offsets;
-    if offsets.len() != count - n + 1 || offsets[0] != 0 || *offsets.last().unwrap_or(&0) as usize != tree.triangles.len() {
+    if offsets.len() != count - n + 1
+        || offsets[0] != 0
+        || *offsets.last().unwrap_or(&0) as usize != tree.triangles.len()
+    {
         return Err("the triangle groups do not tile the triangle list".into());
     }
     if offsets.windows(2).any(|w| w[0] > w[1]) {
@@ -147,11 +181,17 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
         for &f in &touched {
             if vanish_node[f as usize] as usize != u {
                 if (vanish_node[f as usize] as usize) < u {
-                    return Err(format!("triangle {f} is still on the front after its node {}", vanish_node[f as usize]));
+                    return Err(format!(
+                        "triangle {f} is still on the front after its node {}",
+                        vanish_node[f as usize]
+                    ));
                 }
                 let k = key_of(&mut up, f);
                 if k[0] == k[1] || k[1] == k[2] {
-                    return Err(format!("triangle {f} is degenerate after merge {u} but vanishes only at {}", vanish_node[f as usize]));
+                    return Err(format!(
+                        "triangle {f} is degenerate after merge {u} but vanishes only at {}",
+                        vanish_node[f as usize]
+                    ));
                 }
                 if !keys.insert(k) {
                     return Err(format!("triangle {f} repeats another after merge {u}"));
@@ -163,7 +203,9 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
             if vanish_node[f as usize] as usize == u {
                 let k = key_of(&mut up, f);
                 if !(k[0] == k[1] || k[1] == k[2] || keys.contains(&k)) {
-                    return Err(format!("triangle {f} vanishes at node {u} but is neither degenerate nor coincident there"));
+                    return Err(format!(
+                        "triangle {f} vanishes at node {u} but is neither degenerate nor coincident there"
+                    ));
                 }
                 alive[f as usize] = false;
                 vanished += 1;
@@ -171,7 +213,9 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
         }
         let expected = (tree.vanish_offsets[u - n + 1] - tree.vanish_offsets[u - n]) as usize;
         if vanished != expected {
-            return Err(format!("node {u} lists {expected} vanishing triangles but {vanished} of them touch its children"));
+            return Err(format!(
+                "node {u} lists {expected} vanishing triangles but {vanished} of them touch its children"
+            ));
         }
         let keep: Vec<u32> = touched.into_iter().filter(|&f| alive[f as usize]).collect();
         around[u] = keep;

@@ -28,7 +28,13 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
     for u in (0..count as u32).rev() {
         let p = tree.nodes[u as usize].parent;
         let on_front = !(u >= n && split(u)) && (p == super::NONE || (p >= n && split(p)));
-        rep[u as usize] = if on_front { u } else if p == super::NONE { u } else { rep[p as usize] };
+        rep[u as usize] = if on_front {
+            u
+        } else if p == super::NONE {
+            u
+        } else {
+            rep[p as usize]
+        };
         if on_front {
             index[u as usize] = nodes.len() as u32;
             nodes.push(u);
@@ -56,15 +62,29 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
             triangles.push(c);
         }
     }
-    let pick = |f: fn(&super::Node) -> Vec3| nodes.iter().map(|&u| f(&tree.nodes[u as usize])).collect::<Vec<_>>();
+    let pick = |f: fn(&super::Node) -> Vec3| {
+        nodes
+            .iter()
+            .map(|&u| f(&tree.nodes[u as usize]))
+            .collect::<Vec<_>>()
+    };
     let mesh = Mesh {
         positions: pick(|n| Vec3::from_array(n.position)),
         colors: tree.has_colors.then(|| pick(|n| Vec3::from_array(n.color))),
-        normals: tree.has_normals.then(|| pick(|n| Vec3::from_array(n.normal))),
-        parts: vec![Part { name: "lod".into(), triangles: 0..triangles.len() as u32 }],
+        normals: tree
+            .has_normals
+            .then(|| pick(|n| Vec3::from_array(n.normal))),
+        parts: vec![Part {
+            name: "lod".into(),
+            triangles: 0..triangles.len() as u32,
+        }],
         triangles,
     };
-    Cut { nodes, mesh, dropped }
+    Cut {
+        nodes,
+        mesh,
+        dropped,
+    }
 }
 
 /// The mesh after the first `merges` merges of the build (0: the input, `leaf_count − 1`: one vertex).
@@ -77,7 +97,9 @@ pub fn cut_at_merges(tree: &VertexTree, merges: u32) -> Cut {
 pub fn cut_at_triangles(tree: &VertexTree, target: u32) -> Cut {
     let total = tree.triangles.len() as u32;
     // After k merges, total − vanish_offsets[k] triangles remain; vanish_offsets is non-decreasing.
-    let k = tree.vanish_offsets.partition_point(|&gone| total - gone > target);
+    let k = tree
+        .vanish_offsets
+        .partition_point(|&gone| total - gone > target);
     cut_at_merges(tree, k as u32)
 }
 

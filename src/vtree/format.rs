@@ -49,8 +49,18 @@ fn crc(bytes: &[u8]) -> u32 {
 /// Serialises a tree.
 pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
     let mut meta = Vec::with_capacity(META_LEN);
-    let flags = if tree.has_colors { FLAG_COLORS } else { 0 } | if tree.has_normals { FLAG_NORMALS } else { 0 };
-    for x in [tree.leaf_count, tree.nodes.len() as u32, tree.triangles.len() as u32, tree.metric.code(), flags, tree.parts.len() as u32, 0, 0] {
+    let flags = if tree.has_colors { FLAG_COLORS } else { 0 }
+        | if tree.has_normals { FLAG_NORMALS } else { 0 };
+    for x in [
+        tree.leaf_count,
+        tree.nodes.len() as u32,
+        tree.triangles.len() as u32,
+        tree.metric.code(),
+        flags,
+        tree.parts.len() as u32,
+        0,
+        0,
+    ] {
         meta.extend_from_slice(&x.to_le_bytes());
     }
     let mut parts = Vec::new();
@@ -69,7 +79,8 @@ pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
         &parts,
     ];
     let table_end = HEADER + TABLE_ENTRY * sections.len();
-    let mut out = Vec::with_capacity(table_end + 4 + sections.iter().map(|s| s.len()).sum::<usize>());
+    let mut out =
+        Vec::with_capacity(table_end + 4 + sections.iter().map(|s| s.len()).sum::<usize>());
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
@@ -122,26 +133,51 @@ impl Cursor<'_> {
 
 /// Parses and validates `.vtree` bytes; `path` names the file in errors.
 pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
-    let fail = |offset: Option<u64>, kind, message: String| FormatError { path: path.to_path_buf(), offset, kind, message };
+    let fail = |offset: Option<u64>, kind, message: String| FormatError {
+        path: path.to_path_buf(),
+        offset,
+        kind,
+        message,
+    };
     let len = bytes.len() as u64;
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
-        return Err(fail(Some(0), FormatErrorKind::NotAVtree, "not a .vtree file (bad magic)".into()));
+        return Err(fail(
+            Some(0),
+            FormatErrorKind::NotAVtree,
+            "not a .vtree file (bad magic)".into(),
+        ));
     }
     let c = Cursor { bytes };
     let version = c.u32(8);
     if version != FORMAT_VERSION {
-        return Err(fail(Some(8), FormatErrorKind::WrongVersion { found: version }, format!("format version {version}; this build reads version {FORMAT_VERSION}")));
+        return Err(fail(
+            Some(8),
+            FormatErrorKind::WrongVersion { found: version },
+            format!("format version {version}; this build reads version {FORMAT_VERSION}"),
+        ));
     }
     let count = c.u32(12);
     if count > MAX_SECTIONS {
-        return Err(fail(Some(12), FormatErrorKind::Invalid, format!("{count} sections; at most {MAX_SECTIONS} are allowed")));
+        return Err(fail(
+            Some(12),
+            FormatErrorKind::Invalid,
+            format!("{count} sections; at most {MAX_SECTIONS} are allowed"),
+        ));
     }
     let table_end = HEADER + TABLE_ENTRY * count as usize;
     if bytes.len() < table_end + 4 {
-        return Err(fail(Some(len), FormatErrorKind::Truncated, format!("the file ends inside its section table ({table_end} bytes needed)")));
+        return Err(fail(
+            Some(len),
+            FormatErrorKind::Truncated,
+            format!("the file ends inside its section table ({table_end} bytes needed)"),
+        ));
     }
     if crc(&bytes[..table_end]) != c.u32(table_end) {
-        return Err(fail(Some(table_end as u64), FormatErrorKind::Checksum, "the header or section table is corrupt (checksum mismatch)".into()));
+        return Err(fail(
+            Some(table_end as u64),
+            FormatErrorKind::Checksum,
+            "the header or section table is corrupt (checksum mismatch)".into(),
+        ));
     }
     let mut expected = (table_end + 4) as u64;
     let mut found: [Option<&[u8]>; 5] = [None; 5];
@@ -151,43 +187,106 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         let (offset, length, sum) = (c.u64(at + 8), c.u64(at + 16), c.u32(at + 24));
         let name = String::from_utf8_lossy(&tag).into_owned();
         if offset != expected {
-            return Err(fail(Some(at as u64), FormatErrorKind::Invalid, format!("section {name} starts at {offset}, expected {expected}: sections must follow each other")));
+            return Err(fail(
+                Some(at as u64),
+                FormatErrorKind::Invalid,
+                format!(
+                    "section {name} starts at {offset}, expected {expected}: sections must follow each other"
+                ),
+            ));
         }
         let end = offset.checked_add(length).filter(|&e| e <= len).ok_or_else(|| {
             fail(Some(len), FormatErrorKind::Truncated, format!("section {name} ({length} bytes at {offset}) runs past the end of the {len}-byte file"))
         })?;
         let body = &bytes[offset as usize..end as usize];
         if crc(body) != sum {
-            return Err(fail(Some(offset), FormatErrorKind::Checksum, format!("section {name} is corrupt (checksum mismatch)")));
+            return Err(fail(
+                Some(offset),
+                FormatErrorKind::Checksum,
+                format!("section {name} is corrupt (checksum mismatch)"),
+            ));
         }
         if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
             if found[k].is_some() {
-                return Err(fail(Some(at as u64), FormatErrorKind::Invalid, format!("section {name} appears twice")));
+                return Err(fail(
+                    Some(at as u64),
+                    FormatErrorKind::Invalid,
+                    format!("section {name} appears twice"),
+                ));
             }
             found[k] = Some(body);
         }
         expected = end;
     }
     if expected != len {
-        return Err(fail(Some(expected), FormatErrorKind::Invalid, format!("{} bytes after the last section", len - expected)));
+        return Err(fail(
+            Some(expected),
+            FormatErrorKind::Invalid,
+            format!("{} bytes after the last section", len - expected),
+        ));
     }
-    let section = |k: usize| found[k].ok_or_else(|| fail(None, FormatErrorKind::Invalid, format!("section {} is missing", String::from_utf8_lossy(&SECTIONS[k]))));
-    let (meta, node_bytes, tri_bytes, off_bytes, part_bytes) = (section(0)?, section(1)?, section(2)?, section(3)?, section(4)?);
+    let section = |k: usize| {
+        found[k].ok_or_else(|| {
+            fail(
+                None,
+                FormatErrorKind::Invalid,
+                format!(
+                    "section {} is missing",
+                    String::from_utf8_lossy(&SECTIONS[k])
+                ),
+            )
+        })
+    };
+    let (meta, node_bytes, tri_bytes, off_bytes, part_bytes) = (
+        section(0)?,
+        section(1)?,
+        section(2)?,
+        section(3)?,
+        section(4)?,
+    );
     if meta.len() != META_LEN {
-        return Err(fail(None, FormatErrorKind::Invalid, format!("META is {} bytes, expected {META_LEN}", meta.len())));
+        return Err(fail(
+            None,
+            FormatErrorKind::Invalid,
+            format!("META is {} bytes, expected {META_LEN}", meta.len()),
+        ));
     }
     let m = Cursor { bytes: meta };
-    let (leaves, nodes, tris, metric, flags, parts) = (m.u32(0), m.u32(4), m.u32(8), m.u32(12), m.u32(16), m.u32(20));
-    let metric = Metric::from_code(metric).ok_or_else(|| fail(None, FormatErrorKind::Invalid, format!("unknown metric code {metric}")))?;
+    let (leaves, nodes, tris, metric, flags, parts) = (
+        m.u32(0),
+        m.u32(4),
+        m.u32(8),
+        m.u32(12),
+        m.u32(16),
+        m.u32(20),
+    );
+    let metric = Metric::from_code(metric).ok_or_else(|| {
+        fail(
+            None,
+            FormatErrorKind::Invalid,
+            format!("unknown metric code {metric}"),
+        )
+    })?;
     let want = |what: &str, have: usize, count: u64, size: u64| {
         if have as u64 != count * size {
-            Err(fail(None, FormatErrorKind::Invalid, format!("section {what} is {have} bytes, but META's counts need {}", count * size)))
+            Err(fail(
+                None,
+                FormatErrorKind::Invalid,
+                format!(
+                    "section {what} is {have} bytes, but META's counts need {}",
+                    count * size
+                ),
+            ))
         } else {
             Ok(())
         }
     };
     if leaves == 0 || nodes < leaves {
-        return Err(fail(None, FormatErrorKind::Invalid, format!("META says {nodes} nodes for {leaves} leaves")));
+        return Err(fail(
+            None,
+            FormatErrorKind::Invalid,
+            format!("META says {nodes} nodes for {leaves} leaves"),
+        ));
     }
     want("NODE", node_bytes.len(), nodes as u64, NODE_LEN)?;
     want("TRIS", tri_bytes.len(), tris as u64, 12)?;
@@ -198,16 +297,39 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
     for i in 0..parts {
         let p = Cursor { bytes: part_bytes };
         if at + 8 > part_bytes.len() {
-            return Err(fail(None, FormatErrorKind::Invalid, format!("PART ends inside part {i}")));
+            return Err(fail(
+                None,
+                FormatErrorKind::Invalid,
+                format!("PART ends inside part {i}"),
+            ));
         }
         let (triangles, name_len) = (p.u32(at), p.u32(at + 4) as usize);
-        let name = part_bytes.get(at + 8..at + 8 + name_len).ok_or_else(|| fail(None, FormatErrorKind::Invalid, format!("PART: name of part {i} runs past the section")))?;
-        let name = std::str::from_utf8(name).map_err(|_| fail(None, FormatErrorKind::Invalid, format!("PART: name of part {i} is not UTF-8")))?;
-        part_list.push(PartInfo { name: name.to_owned(), triangles });
+        let name = part_bytes.get(at + 8..at + 8 + name_len).ok_or_else(|| {
+            fail(
+                None,
+                FormatErrorKind::Invalid,
+                format!("PART: name of part {i} runs past the section"),
+            )
+        })?;
+        let name = std::str::from_utf8(name).map_err(|_| {
+            fail(
+                None,
+                FormatErrorKind::Invalid,
+                format!("PART: name of part {i} is not UTF-8"),
+            )
+        })?;
+        part_list.push(PartInfo {
+            name: name.to_owned(),
+            triangles,
+        });
         at += 8 + name_len;
     }
     if at != part_bytes.len() {
-        return Err(fail(None, FormatErrorKind::Invalid, "PART has bytes after its last part".into()));
+        return Err(fail(
+            None,
+            FormatErrorKind::Invalid,
+            "PART has bytes after its last part".into(),
+        ));
     }
 
     let tree = VertexTree {
@@ -220,6 +342,12 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         has_normals: flags & FLAG_NORMALS != 0,
         parts: part_list,
     };
-    super::check(&tree).map_err(|e| fail(None, FormatErrorKind::Invalid, format!("the tree is inconsistent: {e}")))?;
+    super::check(&tree).map_err(|e| {
+        fail(
+            None,
+            FormatErrorKind::Invalid,
+            format!("the tree is inconsistent: {e}"),
+        )
+    })?;
     Ok(tree)
 }

@@ -111,8 +111,16 @@ impl VertexTree {
     /// Bounding-box diagonal of the leaves.
     pub fn diagonal(&self) -> f32 {
         let leaves = &self.nodes[..self.leaf_count as usize];
-        let lo = leaves.iter().fold(Vec3::splat(f32::INFINITY), |a, n| a.min(n.position()));
-        let hi = leaves.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, n| a.max(n.position()));
-        if leaves.is_empty() { 0.0 } else { (hi - lo).length() }
+        let lo = leaves
+            .iter()
+            .fold(Vec3::splat(f32::INFINITY), |a, n| a.min(n.position()));
+        let hi = leaves
+            .iter()
+            .fold(Vec3::splat(f32::NEG_INFINITY), |a, n| a.max(n.position()));
+        if leaves.is_empty() {
+            0.0
+        } else {
+            (hi - lo).length()
+        }
     }
 }
