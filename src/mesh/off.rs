@@ -139,7 +139,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
                 format!("face: vertex count {:?} is not an integer", t[0]),
             )
         })?;
-        if n < 3 || t.len() < 1 + n {
+        if n < 3 || t.len() - 1 < n {
             return Err(InputError::line(
                 path,
                 line,

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The whole test suite, from a fresh Debian machine with only Rust installed.
+#
+#   scripts/test.sh
+#
+# Installs what the suite needs when it is missing (Mesa lavapipe, the software Vulkan driver the GPU
+# tests render with), then runs every test. Set VUNIFY_MODELS to a folder of the real models (see
+# ../shared/models/README.md) to include the tests on them; CI does.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+need=()
+for pkg in mesa-vulkan-drivers libvulkan1; do
+  dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+done
+if [ ${#need[@]} -gt 0 ]; then
+  echo "scripts/test.sh: installing ${need[*]}"
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${need[@]}" >/dev/null
+fi
+
+if [ -n "${VUNIFY_MODELS:-}" ]; then
+  echo "scripts/test.sh: real models from VUNIFY_MODELS=$VUNIFY_MODELS"
+else
+  echo "scripts/test.sh: VUNIFY_MODELS is not set; the tests on real models will say so and pass"
+fi
+
+cargo test --lib --bins --tests --locked
+cargo check --benches --locked   # benchmarks must keep compiling; they run with `cargo bench`
+cargo test --doc --locked

@@ -1,0 +1,207 @@
+//! The vertex-tree builder: exact results on hand-built meshes, invariants on random and real ones.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use proptest::prelude::*;
+use vunify::mesh::{CleanOptions, Mesh};
+use vunify::simplify::Metric;
+use vunify::vtree::{self, BuildOptions, VertexTree};
+
+fn build(mesh: &Mesh, metric: Metric) -> VertexTree {
+    let options = BuildOptions { metric, ..Default::default() };
+    vtree::build(mesh, &options, &mut |_, _| {}).expect("build").0
+}
+
+fn sorted_keys(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut v: Vec<[u32; 3]> = tris.iter().map(|t| {
+        let mut k = *t;
+        k.sort_unstable();
+        k
+    }).collect();
+    v.sort_unstable();
+    v
+}
+
+/// Every invariant the issue names, on one tree built from `mesh`.
+fn assert_tree_invariants(mesh: &Mesh, tree: &VertexTree) {
+    // One binary tree, one root; errors monotone; spheres nested; links consistent.
+    vtree::check(tree).unwrap();
+    // Collapsing it reaches the one root, and every cut in build order is a mesh without degenerate or
+    // duplicate triangles.
+    vtree::check_cut(tree).unwrap();
+    assert_eq!(tree.nodes.len(), 2 * mesh.vertex_count() - 1);
+    assert_eq!(tree.nodes[tree.root() as usize].parent, vtree::NONE);
+    // Splitting the whole tree gives back the input triangle set exactly (orientation included).
+    let full = vtree::cut_at_merges(tree, 0);
+    assert_eq!(full.mesh.positions, mesh.positions);
+    let mut a = full.mesh.triangles.clone();
+    let mut b = mesh.triangles.clone();
+    a.sort_unstable();
+    b.sort_unstable();
+    assert_eq!(a, b);
+    assert_eq!(sorted_keys(&tree.triangles), sorted_keys(&mesh.triangles));
+    // Bounding spheres contain every vertex of their subtree.
+    for (u, node) in tree.nodes.iter().enumerate() {
+        let mut stack = vec![u as u32];
+        let c = Vec3::from_slice(&node.sphere);
+        while let Some(v) = stack.pop() {
+            let n = &tree.nodes[v as usize];
+            assert!(c.distance(n.position()) <= node.sphere[3] * (1.0 + 1e-5) + 1e-5, "node {v} outside the sphere of {u}");
+            if !n.is_leaf() {
+                stack.extend(n.children);
+            }
+        }
+    }
+    // The root's cut is one vertex and no triangle.
+    let root = vtree::cut_at_merges(tree, tree.internal_count());
+    assert_eq!((root.mesh.vertex_count(), root.mesh.triangle_count()), (1, 0));
+}
+
+/// Seed 001 Fig. 2: a tetrahedron beside a separate triangle (see `collapse.rs` for the single merge).
+/// ```text
+///        3                  6
+///       /|\                / \
+///      0-|-2              4---5
+///       \|/
+///        1
+/// ```
+/// The whole build joins the two parts (one root), and every cut is valid.
+#[test]
+fn fig2_tetrahedron_and_triangle_build_to_one_root() {
+    let p = vec![
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(4.0, 0.0, 0.0),
+        Vec3::new(5.0, 0.0, 0.0),
+        Vec3::new(4.5, 0.0, 1.0),
+    ];
+    let mesh = Mesh::from_triangles(p, vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]]);
+    for metric in [Metric::Qem, Metric::QemMidpoint, Metric::EdgeLength, Metric::Hybrid] {
+        let tree = build(&mesh, metric);
+        assert_tree_invariants(&mesh, &tree);
+        assert_eq!(tree.nodes.len(), 13);
+        // Five triangles in all vanish along the way; the tetrahedron's 4 before the parts are joined.
+        assert_eq!(tree.triangles.len(), 5);
+    }
+}
+
+/// A flat strip of two squares:
+/// ```text
+///   3 --- 4 --- 5
+///   |   / |   / |
+///   | /   | /   |
+///   0 --- 1 --- 2
+/// ```
+/// 0, 2, 3, 5 are corners. 1 and 4 sit on straight boundaries: merging either into a neighbouring
+/// corner along the boundary moves no surface (the face plane z = 0 and the boundary planes y = 0 or
+/// y = 1 all still hold), so the first merge is one of those four, costs exactly zero, puts the merged
+/// vertex exactly on the corner, and removes exactly one triangle. Any other merge costs more.
+#[test]
+fn strip_first_merge_is_a_free_boundary_slide() {
+    let mesh = grid(2, 1, |_, _| 0.0);
+    let tree = build(&mesh, Metric::Qem);
+    assert_tree_invariants(&mesh, &tree);
+    assert_eq!((tree.leaf_count, tree.internal_count()), (6, 5));
+    let first = &tree.nodes[6];
+    let mut kids = first.children;
+    kids.sort_unstable();
+    assert!([[0, 1], [1, 2], [3, 4], [4, 5]].contains(&kids), "{kids:?}");
+    assert_eq!(first.error, 0.0);
+    let corner = if kids.contains(&1) { kids[0] + kids[1] - 1 } else { kids[0] + kids[1] - 4 };
+    assert_eq!(first.position(), mesh.positions[corner as usize]);
+    assert_eq!(tree.vanishing(6).len(), 1);
+    // All four triangles are gone by the root, and errors only grow.
+    assert_eq!(tree.triangles.len(), 4);
+}
+
+/// Two separate triangles far apart, nothing to pair at the default radius: the queue runs dry with two
+/// roots, the radius widens, and they are joined into one tree anyway.
+#[test]
+fn separate_parts_are_joined_by_widening() {
+    let a = Mesh::from_triangles(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
+    let mesh = scene(&[a.clone(), a], 100.0);
+    let (tree, stats) = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap();
+    assert_tree_invariants(&mesh, &tree);
+    assert!(stats.widenings >= 1);
+    assert_eq!(tree.parts.len(), 2);
+    // The last merge joins the parts: it removes no triangle, and its error is at least half the gap.
+    let last = tree.root();
+    assert!(tree.vanishing(last).is_empty());
+    assert!(tree.nodes[last as usize].error >= 49.0);
+}
+
+#[test]
+fn colours_are_carried_to_merged_vertices() {
+    let mut mesh = grid(3, 3, |_, _| 0.0);
+    mesh.colors = Some(mesh.positions.iter().map(|p| Vec3::new(p.x / 3.0, p.y / 3.0, 0.5)).collect());
+    let tree = build(&mesh, Metric::Qem);
+    assert!(tree.has_colors);
+    for node in &tree.nodes {
+        let c = Vec3::from_array(node.color);
+        assert!(c.min_element() >= -1e-6 && c.max_element() <= 1.0 + 1e-6);
+        assert!((c.z - 0.5).abs() < 1e-5, "a constant channel stays constant: {c}");
+    }
+    // The root's colour is the area-weighted mean of a linear ramp over a square: its centre.
+    let root = Vec3::from_array(tree.nodes[tree.root() as usize].color);
+    assert!((root.x - 0.5).abs() < 0.05 && (root.y - 0.5).abs() < 0.05, "{root}");
+}
+
+#[test]
+fn extract_hits_its_targets() {
+    let mesh = grid(10, 10, |x, y| (x * 0.5).sin() + (y * 0.3).cos());
+    let tree = build(&mesh, Metric::Qem);
+    for target in [0, 1, 7, 50, 100, 199, 200, 1000] {
+        let cut = vtree::cut_at_triangles(&tree, target);
+        assert!(cut.mesh.triangle_count() as u32 <= target.max(0), "{target}");
+        assert_eq!(cut.dropped, 0, "build-order cuts never need cleaning");
+        cut.mesh.check().unwrap();
+    }
+    assert_eq!(vtree::cut_at_triangles(&tree, 200).mesh.triangle_count(), 200);
+    // Error cuts: zero error keeps the flat-free input, a huge error gives the root.
+    assert_eq!(vtree::cut_at_error(&tree, f32::MAX).mesh.vertex_count(), 1);
+    let fine = vtree::cut_at_error(&tree, 0.0);
+    assert!(fine.mesh.triangle_count() <= 200);
+    let mid = vtree::cut_at_error(&tree, 0.05);
+    for &u in &mid.nodes {
+        assert!(tree.nodes[u as usize].error <= 0.05);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Random scenes of bumpy grids: all invariants, every metric.
+    #[test]
+    fn random_scenes_keep_every_invariant(seed in any::<u64>(), metric in 0u32..4) {
+        let mesh = random_scene(seed);
+        let tree = build(&mesh, Metric::from_code(metric).unwrap());
+        assert_tree_invariants(&mesh, &tree);
+    }
+
+    /// Random soups: non-manifold edges, fans, isolated triangles, coincident merges everywhere.
+    #[test]
+    fn random_soups_keep_every_invariant(seed in any::<u64>(), vertices in 3u32..40, triangles in 1u32..120, metric in 0u32..4) {
+        let mesh = random_soup(seed, vertices, triangles);
+        prop_assume!(!mesh.triangles.is_empty());
+        let tree = build(&mesh, Metric::from_code(metric).unwrap());
+        assert_tree_invariants(&mesh, &tree);
+    }
+}
+
+/// The real models in `$VUNIFY_MODELS` all build to one root and pass every check.
+#[test]
+fn real_models_build_to_one_root() {
+    let Some(dir) = models_dir() else { return };
+    for name in MODELS {
+        let (mesh, _) = vunify::mesh::load(&dir.join(name), &CleanOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let (tree, stats) = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap();
+        eprintln!("{name}: {} leaves, depth {}, {} widenings", stats.leaves, stats.depth, stats.widenings);
+        assert_tree_invariants(&mesh, &tree);
+        let bytes = vtree::to_bytes(&tree);
+        assert_eq!(vtree::read_bytes(&bytes, std::path::Path::new(name)).unwrap(), tree);
+    }
+}

@@ -1,0 +1,76 @@
+//! The `vunify` command line, run as a user would.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn vunify(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vunify")).args(args).output().expect("run vunify")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vunify-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn ok(out: &Output) -> String {
+    assert!(out.status.success(), "stdout: {}\nstderr: {}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout.clone()).unwrap()
+}
+
+#[test]
+fn build_info_extract_measure() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let tree = tmp("cessna.vtree");
+    let t = tree.to_str().unwrap();
+    let summary = ok(&vunify(&["build", model, "-o", t, "--json"]));
+    let json: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    assert_eq!(json["vertices"], 6795);
+    assert_eq!(json["triangles"], 13546);
+    assert_eq!(json["build"]["nodes"], 2 * 6795 - 1);
+
+    let info: serde_json::Value = serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap();
+    assert_eq!(info["leaves"], 6795);
+    assert_eq!(info["checked"], true);
+
+    let lod = tmp("cessna-10.obj");
+    let l = lod.to_str().unwrap();
+    let said = ok(&vunify(&["extract", t, "--ratio", "0.1", "-o", l]));
+    assert!(said.contains("1354 triangles") || said.contains("1355 triangles"), "{said}");
+    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&["measure", model, l, "--json", "--samples", "20000"]))).unwrap();
+    let max = m["symmetric"]["max"].as_f64().unwrap();
+    assert!(max > 0.0 && max < 0.05, "10 % of the cessna is within 5 % of its diagonal: {max}");
+
+    let by_count = ok(&vunify(&["extract", t, "--triangles", "100", "-o", l]));
+    assert!(by_count.contains(" 100 triangles") || by_count.contains(" 99 triangles") || by_count.contains(" 98 triangles"), "{by_count}");
+    ok(&vunify(&["extract", t, "--error", "0.01", "-o", l]));
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let bad = tmp("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+    let out = vunify(&["build", bad.to_str().unwrap(), "-o", tmp("x.vtree").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.obj:4:") && err.contains("out of range"), "{err}");
+    assert!(!tmp("x.vtree").exists(), "no output on failure");
+
+    let junk = tmp("junk.vtree");
+    std::fs::write(&junk, b"VUNIFYVT\x01\0\0\0").unwrap();
+    let out = vunify(&["info", junk.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("junk.vtree"));
+
+    // Exactly one target for extract.
+    let out = vunify(&["extract", junk.to_str().unwrap(), "-o", "x.obj"]);
+    assert!(!out.status.success());
+}
+
+#[test]
+fn help_explains_every_option() {
+    let help = ok(&vunify(&["build", "--help"]));
+    for option in ["--metric", "--pair-distance", "--max-pairs", "--sharp-angle", "--w-dist", "--w-feature", "--no-weld", "qem-midpoint", "hybrid"] {
+        assert!(help.contains(option), "build --help lacks {option}");
+    }
+}

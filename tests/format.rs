@@ -1,0 +1,114 @@
+//! The .vtree file: round trips, atomic writes, and a reader that detects every corruption.
+
+mod common;
+
+use common::*;
+use proptest::prelude::*;
+use std::path::Path;
+use vunify::vtree::{self, BuildOptions, VertexTree};
+
+fn small_tree() -> VertexTree {
+    let mesh = scene(&[grid(2, 2, |x, y| 0.1 * x * y), grid(1, 1, |_, _| 0.0)], 3.0);
+    vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap().0
+}
+
+#[test]
+fn round_trip_is_exact() {
+    let tree = small_tree();
+    let bytes = vtree::to_bytes(&tree);
+    assert_eq!(&bytes[..8], b"VUNIFYVT");
+    assert_eq!(vtree::read_bytes(&bytes, Path::new("t.vtree")).unwrap(), tree);
+}
+
+#[test]
+fn every_single_byte_corruption_is_detected() {
+    let bytes = vtree::to_bytes(&small_tree());
+    for i in 0..bytes.len() {
+        for flip in [0x01u8, 0x80, 0xFF, 0x5A] {
+            let mut bad = bytes.clone();
+            bad[i] ^= flip;
+            let e = vtree::read_bytes(&bad, Path::new("bad.vtree"));
+            assert!(e.is_err(), "byte {i} ^ {flip:#x} went unnoticed");
+            assert!(e.unwrap_err().to_string().starts_with("bad.vtree"));
+        }
+    }
+}
+
+#[test]
+fn every_truncation_and_extension_is_detected() {
+    let bytes = vtree::to_bytes(&small_tree());
+    for len in 0..bytes.len() {
+        assert!(vtree::read_bytes(&bytes[..len], Path::new("t.vtree")).is_err(), "truncated to {len}");
+    }
+    let mut longer = bytes.clone();
+    longer.push(0);
+    assert!(vtree::read_bytes(&longer, Path::new("t.vtree")).is_err());
+}
+
+#[test]
+fn wrong_version_is_named() {
+    let mut bytes = vtree::to_bytes(&small_tree());
+    bytes[8] = 7;
+    let e = vtree::read_bytes(&bytes, Path::new("v.vtree")).unwrap_err();
+    assert_eq!(e.kind, vunify::vtree::FormatErrorKind::WrongVersion { found: 7 });
+    assert!(e.to_string().contains("version 7"));
+}
+
+/// A well-formed file (checksums fixed up) whose tree is wrong is still rejected: the reader checks the
+/// structure, not just the bytes.
+#[test]
+fn consistent_checksums_do_not_hide_a_broken_tree() {
+    let mut tree = small_tree();
+    let root = tree.root() as usize;
+    tree.nodes[root - 1].parent = vtree::NONE; // two roots
+    let e = vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("two-roots.vtree")).unwrap_err();
+    assert!(e.message.contains("inconsistent"), "{e}");
+    let mut tree = small_tree();
+    tree.triangles[0][1] = tree.leaf_count + 5; // index out of range
+    assert!(vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("t")).is_err());
+    let mut tree = small_tree();
+    let u = tree.leaf_count as usize;
+    tree.nodes[u].error = -1.0;
+    assert!(vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("t")).is_err());
+}
+
+#[test]
+fn writes_are_atomic_and_leave_no_temporary_files() {
+    let dir = std::env::temp_dir().join(format!("vunify-format-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("tree.vtree");
+    std::fs::write(&path, b"old contents").unwrap();
+    let tree = small_tree();
+    vtree::write(&tree, &path).unwrap();
+    assert_eq!(vtree::read(&path).unwrap(), tree);
+    let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("tree.vtree")]);
+    // A write that cannot happen leaves the old file as it was.
+    assert!(vtree::write(&tree, &dir.join("missing-dir").join("x.vtree")).is_err());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn random_bytes_are_errors(mut bytes in proptest::collection::vec(any::<u8>(), 0..2000), magic in any::<bool>()) {
+        if magic && bytes.len() >= 12 {
+            bytes[..8].copy_from_slice(b"VUNIFYVT");
+            bytes[8..12].copy_from_slice(&1u32.to_le_bytes());
+        }
+        prop_assert!(vtree::read_bytes(&bytes, Path::new("r")).is_err());
+    }
+
+    #[test]
+    fn random_multi_byte_damage_is_detected(edits in proptest::collection::vec((any::<usize>(), 1u8..=255), 1..8)) {
+        let bytes = vtree::to_bytes(&small_tree());
+        let mut bad = bytes.clone();
+        for (at, x) in edits {
+            let i = at % bad.len();
+            bad[i] ^= x;
+        }
+        prop_assume!(bad != bytes);
+        prop_assert!(vtree::read_bytes(&bad, Path::new("r")).is_err());
+    }
+}
