@@ -10,16 +10,24 @@ use vunify::simplify::Metric;
 use vunify::vtree::{self, BuildOptions, VertexTree};
 
 fn build(mesh: &Mesh, metric: Metric) -> VertexTree {
-    let options = BuildOptions { metric, ..Default::default() };
-    vtree::build(mesh, &options, &mut |_, _| {}).expect("build").0
+    let options = BuildOptions {
+        metric,
+        ..Default::default()
+    };
+    vtree::build(mesh, &options, &mut |_, _| {})
+        .expect("build")
+        .0
 }
 
 fn sorted_keys(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut v: Vec<[u32; 3]> = tris.iter().map(|t| {
-        let mut k = *t;
-        k.sort_unstable();
-        k
-    }).collect();
+    let mut v: Vec<[u32; 3]> = tris
+        .iter()
+        .map(|t| {
+            let mut k = *t;
+            k.sort_unstable();
+            k
+        })
+        .collect();
     v.sort_unstable();
     v
 }
@@ -48,7 +56,10 @@ fn assert_tree_invariants(mesh: &Mesh, tree: &VertexTree) {
         let c = Vec3::from_slice(&node.sphere);
         while let Some(v) = stack.pop() {
             let n = &tree.nodes[v as usize];
-            assert!(c.distance(n.position()) <= node.sphere[3] * (1.0 + 1e-5) + 1e-5, "node {v} outside the sphere of {u}");
+            assert!(
+                c.distance(n.position()) <= node.sphere[3] * (1.0 + 1e-5) + 1e-5,
+                "node {v} outside the sphere of {u}"
+            );
             if !n.is_leaf() {
                 stack.extend(n.children);
             }
@@ -56,7 +67,10 @@ fn assert_tree_invariants(mesh: &Mesh, tree: &VertexTree) {
     }
     // The root's cut is one vertex and no triangle.
     let root = vtree::cut_at_merges(tree, tree.internal_count());
-    assert_eq!((root.mesh.vertex_count(), root.mesh.triangle_count()), (1, 0));
+    assert_eq!(
+        (root.mesh.vertex_count(), root.mesh.triangle_count()),
+        (1, 0)
+    );
 }
 
 /// Seed 001 Fig. 2: a tetrahedron beside a separate triangle (see `collapse.rs` for the single merge).
@@ -79,8 +93,16 @@ fn fig2_tetrahedron_and_triangle_build_to_one_root() {
         Vec3::new(5.0, 0.0, 0.0),
         Vec3::new(4.5, 0.0, 1.0),
     ];
-    let mesh = Mesh::from_triangles(p, vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]]);
-    for metric in [Metric::Qem, Metric::QemMidpoint, Metric::EdgeLength, Metric::Hybrid] {
+    let mesh = Mesh::from_triangles(
+        p,
+        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]],
+    );
+    for metric in [
+        Metric::Qem,
+        Metric::QemMidpoint,
+        Metric::EdgeLength,
+        Metric::Hybrid,
+    ] {
         let tree = build(&mesh, metric);
         assert_tree_invariants(&mesh, &tree);
         assert_eq!(tree.nodes.len(), 13);
@@ -111,7 +133,11 @@ fn strip_first_merge_is_a_free_boundary_slide() {
     kids.sort_unstable();
     assert!([[0, 1], [1, 2], [3, 4], [4, 5]].contains(&kids), "{kids:?}");
     assert_eq!(first.error, 0.0);
-    let corner = if kids.contains(&1) { kids[0] + kids[1] - 1 } else { kids[0] + kids[1] - 4 };
+    let corner = if kids.contains(&1) {
+        kids[0] + kids[1] - 1
+    } else {
+        kids[0] + kids[1] - 4
+    };
     assert_eq!(first.position(), mesh.positions[corner as usize]);
     assert_eq!(tree.vanishing(6).len(), 1);
     // All four triangles are gone by the root, and errors only grow.
@@ -137,17 +163,28 @@ fn separate_parts_are_joined_by_widening() {
 #[test]
 fn colours_are_carried_to_merged_vertices() {
     let mut mesh = grid(3, 3, |_, _| 0.0);
-    mesh.colors = Some(mesh.positions.iter().map(|p| Vec3::new(p.x / 3.0, p.y / 3.0, 0.5)).collect());
+    mesh.colors = Some(
+        mesh.positions
+            .iter()
+            .map(|p| Vec3::new(p.x / 3.0, p.y / 3.0, 0.5))
+            .collect(),
+    );
     let tree = build(&mesh, Metric::Qem);
     assert!(tree.has_colors);
     for node in &tree.nodes {
         let c = Vec3::from_array(node.color);
         assert!(c.min_element() >= -1e-6 && c.max_element() <= 1.0 + 1e-6);
-        assert!((c.z - 0.5).abs() < 1e-5, "a constant channel stays constant: {c}");
+        assert!(
+            (c.z - 0.5).abs() < 1e-5,
+            "a constant channel stays constant: {c}"
+        );
     }
     // The root's colour is the area-weighted mean of a linear ramp over a square: its centre.
     let root = Vec3::from_array(tree.nodes[tree.root() as usize].color);
-    assert!((root.x - 0.5).abs() < 0.05 && (root.y - 0.5).abs() < 0.05, "{root}");
+    assert!(
+        (root.x - 0.5).abs() < 0.05 && (root.y - 0.5).abs() < 0.05,
+        "{root}"
+    );
 }
 
 #[test]
@@ -156,11 +193,17 @@ fn extract_hits_its_targets() {
     let tree = build(&mesh, Metric::Qem);
     for target in [0, 1, 7, 50, 100, 199, 200, 1000] {
         let cut = vtree::cut_at_triangles(&tree, target);
-        assert!(cut.mesh.triangle_count() as u32 <= target.max(0), "{target}");
+        assert!(
+            cut.mesh.triangle_count() as u32 <= target.max(0),
+            "{target}"
+        );
         assert_eq!(cut.dropped, 0, "build-order cuts never need cleaning");
         cut.mesh.check().unwrap();
     }
-    assert_eq!(vtree::cut_at_triangles(&tree, 200).mesh.triangle_count(), 200);
+    assert_eq!(
+        vtree::cut_at_triangles(&tree, 200).mesh.triangle_count(),
+        200
+    );
     // Error cuts: zero error keeps the flat-free input, a huge error gives the root.
     assert_eq!(vtree::cut_at_error(&tree, f32::MAX).mesh.vertex_count(), 1);
     let fine = vtree::cut_at_error(&tree, 0.0);
@@ -197,11 +240,18 @@ proptest! {
 fn real_models_build_to_one_root() {
     let Some(dir) = models_dir() else { return };
     for name in MODELS {
-        let (mesh, _) = vunify::mesh::load(&dir.join(name), &CleanOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let (mesh, _) = vunify::mesh::load(&dir.join(name), &CleanOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"));
         let (tree, stats) = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap();
-        eprintln!("{name}: {} leaves, depth {}, {} widenings", stats.leaves, stats.depth, stats.widenings);
+        eprintln!(
+            "{name}: {} leaves, depth {}, {} widenings",
+            stats.leaves, stats.depth, stats.widenings
+        );
         assert_tree_invariants(&mesh, &tree);
         let bytes = vtree::to_bytes(&tree);
-        assert_eq!(vtree::read_bytes(&bytes, std::path::Path::new(name)).unwrap(), tree);
+        assert_eq!(
+            vtree::read_bytes(&bytes, std::path::Path::new(name)).unwrap(),
+            tree
+        );
     }
 }

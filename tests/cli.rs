@@ -4,7 +4,10 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn vunify(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vunify")).args(args).output().expect("run vunify")
+    Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args(args)
+        .output()
+        .expect("run vunify")
 }
 
 fn tmp(name: &str) -> PathBuf {
@@ -14,7 +17,12 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn ok(out: &Output) -> String {
-    assert!(out.status.success(), "stdout: {}\nstderr: {}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8(out.stdout.clone()).unwrap()
 }
 
@@ -29,20 +37,40 @@ fn build_info_extract_measure() {
     assert_eq!(json["triangles"], 13546);
     assert_eq!(json["build"]["nodes"], 2 * 6795 - 1);
 
-    let info: serde_json::Value = serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap();
+    let info: serde_json::Value =
+        serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap();
     assert_eq!(info["leaves"], 6795);
     assert_eq!(info["checked"], true);
 
     let lod = tmp("cessna-10.obj");
     let l = lod.to_str().unwrap();
     let said = ok(&vunify(&["extract", t, "--ratio", "0.1", "-o", l]));
-    assert!(said.contains("1354 triangles") || said.contains("1355 triangles"), "{said}");
-    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&["measure", model, l, "--json", "--samples", "20000"]))).unwrap();
+    assert!(
+        said.contains("1354 triangles") || said.contains("1355 triangles"),
+        "{said}"
+    );
+    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&[
+        "measure",
+        model,
+        l,
+        "--json",
+        "--samples",
+        "20000",
+    ])))
+    .unwrap();
     let max = m["symmetric"]["max"].as_f64().unwrap();
-    assert!(max > 0.0 && max < 0.05, "10 % of the cessna is within 5 % of its diagonal: {max}");
+    assert!(
+        max > 0.0 && max < 0.05,
+        "10 % of the cessna is within 5 % of its diagonal: {max}"
+    );
 
     let by_count = ok(&vunify(&["extract", t, "--triangles", "100", "-o", l]));
-    assert!(by_count.contains(" 100 triangles") || by_count.contains(" 99 triangles") || by_count.contains(" 98 triangles"), "{by_count}");
+    assert!(
+        by_count.contains(" 100 triangles")
+            || by_count.contains(" 99 triangles")
+            || by_count.contains(" 98 triangles"),
+        "{by_count}"
+    );
     ok(&vunify(&["extract", t, "--error", "0.01", "-o", l]));
 }
 
@@ -50,10 +78,18 @@ fn build_info_extract_measure() {
 fn bad_input_is_a_clear_error() {
     let bad = tmp("bad.obj");
     std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
-    let out = vunify(&["build", bad.to_str().unwrap(), "-o", tmp("x.vtree").to_str().unwrap()]);
+    let out = vunify(&[
+        "build",
+        bad.to_str().unwrap(),
+        "-o",
+        tmp("x.vtree").to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("bad.obj:4:") && err.contains("out of range"), "{err}");
+    assert!(
+        err.contains("bad.obj:4:") && err.contains("out of range"),
+        "{err}"
+    );
     assert!(!tmp("x.vtree").exists(), "no output on failure");
 
     let junk = tmp("junk.vtree");
@@ -70,7 +106,17 @@ fn bad_input_is_a_clear_error() {
 #[test]
 fn help_explains_every_option() {
     let help = ok(&vunify(&["build", "--help"]));
-    for option in ["--metric", "--pair-distance", "--max-pairs", "--sharp-angle", "--w-dist", "--w-feature", "--no-weld", "qem-midpoint", "hybrid"] {
+    for option in [
+        "--metric",
+        "--pair-distance",
+        "--max-pairs",
+        "--sharp-angle",
+        "--w-dist",
+        "--w-feature",
+        "--no-weld",
+        "qem-midpoint",
+        "hybrid",
+    ] {
         assert!(help.contains(option), "build --help lacks {option}");
     }
 }

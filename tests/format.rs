@@ -8,8 +8,13 @@ use std::path::Path;
 use vunify::vtree::{self, BuildOptions, VertexTree};
 
 fn small_tree() -> VertexTree {
-    let mesh = scene(&[grid(2, 2, |x, y| 0.1 * x * y), grid(1, 1, |_, _| 0.0)], 3.0);
-    vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap().0
+    let mesh = scene(
+        &[grid(2, 2, |x, y| 0.1 * x * y), grid(1, 1, |_, _| 0.0)],
+        3.0,
+    );
+    vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
+        .unwrap()
+        .0
 }
 
 #[test]
@@ -17,7 +22,10 @@ fn round_trip_is_exact() {
     let tree = small_tree();
     let bytes = vtree::to_bytes(&tree);
     assert_eq!(&bytes[..8], b"VUNIFYVT");
-    assert_eq!(vtree::read_bytes(&bytes, Path::new("t.vtree")).unwrap(), tree);
+    assert_eq!(
+        vtree::read_bytes(&bytes, Path::new("t.vtree")).unwrap(),
+        tree
+    );
 }
 
 #[test]
@@ -38,7 +46,10 @@ fn every_single_byte_corruption_is_detected() {
 fn every_truncation_and_extension_is_detected() {
     let bytes = vtree::to_bytes(&small_tree());
     for len in 0..bytes.len() {
-        assert!(vtree::read_bytes(&bytes[..len], Path::new("t.vtree")).is_err(), "truncated to {len}");
+        assert!(
+            vtree::read_bytes(&bytes[..len], Path::new("t.vtree")).is_err(),
+            "truncated to {len}"
+        );
     }
     let mut longer = bytes.clone();
     longer.push(0);
@@ -50,7 +61,10 @@ fn wrong_version_is_named() {
     let mut bytes = vtree::to_bytes(&small_tree());
     bytes[8] = 7;
     let e = vtree::read_bytes(&bytes, Path::new("v.vtree")).unwrap_err();
-    assert_eq!(e.kind, vunify::vtree::FormatErrorKind::WrongVersion { found: 7 });
+    assert_eq!(
+        e.kind,
+        vunify::vtree::FormatErrorKind::WrongVersion { found: 7 }
+    );
     assert!(e.to_string().contains("version 7"));
 }
 
@@ -81,7 +95,10 @@ fn writes_are_atomic_and_leave_no_temporary_files() {
     let tree = small_tree();
     vtree::write(&tree, &path).unwrap();
     assert_eq!(vtree::read(&path).unwrap(), tree);
-    let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(names, vec![std::ffi::OsString::from("tree.vtree")]);
     // A write that cannot happen leaves the old file as it was.
     assert!(vtree::write(&tree, &dir.join("missing-dir").join("x.vtree")).is_err());

@@ -16,7 +16,10 @@ fn err_at(r: Result<vunify::mesh::Mesh, InputError>) -> (Location, String) {
     let e = r.expect_err("expected an error");
     assert_eq!(e.path, Path::new(e.path.to_str().unwrap()));
     let shown = e.to_string();
-    assert!(shown.starts_with(e.path.to_str().unwrap()), "the message names the file: {shown}");
+    assert!(
+        shown.starts_with(e.path.to_str().unwrap()),
+        "the message names the file: {shown}"
+    );
     (e.location, e.message)
 }
 
@@ -57,10 +60,18 @@ fn obj_errors_name_the_line() {
         ("v 0 0 0\nv 1 0 0\nv 0 1 inf\nf 1 2 3\n", 3, "not finite"),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n", 5, "out of range"),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", 4, "index 0"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", 4, "before the first"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n",
+            4,
+            "before the first",
+        ),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", 4, "at least 3"),
         ("v 0 0\n", 1, "expected 3 to 7"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", 4, "texture coordinate index 1 is out of range"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n",
+            4,
+            "texture coordinate index 1 is out of range",
+        ),
     ];
     for (text, line, what) in cases {
         let (loc, msg) = err_at(obj(text));
@@ -85,7 +96,12 @@ fn off_reads_and_reports_lines() {
     let m = parse(text.as_bytes(), Format::Off, Path::new("s.off")).unwrap();
     assert_eq!((m.vertex_count(), m.triangle_count()), (4, 2));
     let quad = "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
-    assert_eq!(parse(quad.as_bytes(), Format::Off, Path::new("q.off")).unwrap().triangle_count(), 2);
+    assert_eq!(
+        parse(quad.as_bytes(), Format::Off, Path::new("q.off"))
+            .unwrap()
+            .triangle_count(),
+        2
+    );
     let coff = "COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n3 0 1 2\n";
     let m = parse(coff.as_bytes(), Format::Off, Path::new("c.off")).unwrap();
     assert_eq!(m.colors.unwrap()[1], Vec3::new(0.0, 1.0, 0.0));
@@ -94,9 +110,19 @@ fn off_reads_and_reports_lines() {
     assert_eq!(loc, Location::Line(6));
     assert!(msg.contains("out of range"));
     let short = "OFF\n3 1 0\n0 0 0\n1 0 0\n";
-    assert!(parse(short.as_bytes(), Format::Off, Path::new("t.off")).unwrap_err().message.contains("end of file"));
+    assert!(
+        parse(short.as_bytes(), Format::Off, Path::new("t.off"))
+            .unwrap_err()
+            .message
+            .contains("end of file")
+    );
     let lie = "OFF\n99999999 99999999 0\n";
-    assert!(parse(lie.as_bytes(), Format::Off, Path::new("l.off")).unwrap_err().message.contains("exceed"));
+    assert!(
+        parse(lie.as_bytes(), Format::Off, Path::new("l.off"))
+            .unwrap_err()
+            .message
+            .contains("exceed")
+    );
 }
 
 fn binary_ply(vertices: &[[f32; 3]], faces: &[[i32; 3]]) -> Vec<u8> {
@@ -122,7 +148,12 @@ fn binary_ply(vertices: &[[f32; 3]], faces: &[[i32; 3]]) -> Vec<u8> {
 
 #[test]
 fn ply_binary_and_ascii() {
-    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    let v = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
     let bytes = binary_ply(&v, &[[0, 1, 2], [1, 3, 2]]);
     let m = parse(&bytes, Format::Ply, Path::new("b.ply")).unwrap();
     assert_eq!((m.vertex_count(), m.triangle_count()), (4, 2));
@@ -138,7 +169,10 @@ fn ply_binary_and_ascii() {
     assert_eq!(loc, Location::Line(16), "{msg}");
     // NaN in binary: the vertex's byte offset.
     let header_len = bytes.len() - 4 * 12 - 2 * 13;
-    let nan = binary_ply(&[[0.0, 0.0, 0.0], [1.0, f32::NAN, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
+    let nan = binary_ply(
+        &[[0.0, 0.0, 0.0], [1.0, f32::NAN, 0.0], [0.0, 1.0, 0.0]],
+        &[[0, 1, 2]],
+    );
     let (loc, msg) = err_at(parse(&nan, Format::Ply, Path::new("n.ply")));
     assert_eq!(loc, Location::Byte(header_len as u64 + 12), "{msg}");
     assert!(msg.contains("not finite"));
@@ -148,7 +182,12 @@ fn ply_binary_and_ascii() {
 fn truncated_binary_ply_names_the_offset() {
     let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     let bytes = binary_ply(&v, &[[0, 1, 2]]);
-    for cut in [bytes.len() - 1, bytes.len() - 13, bytes.len() - 20, bytes.len() - 36] {
+    for cut in [
+        bytes.len() - 1,
+        bytes.len() - 13,
+        bytes.len() - 20,
+        bytes.len() - 36,
+    ] {
         let e = parse(&bytes[..cut], Format::Ply, Path::new("t.ply")).unwrap_err();
         assert!(matches!(e.location, Location::Byte(_)), "{e}");
         assert!(e.to_string().contains("t.ply"), "{e}");
@@ -169,7 +208,12 @@ fn welding_is_on_by_default_and_switchable() {
 
 /// A valid file of each format, for mutation.
 fn seeds() -> Vec<(Format, Vec<u8>)> {
-    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 1.0]];
+    let v = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 1.0],
+    ];
     vec![
         (Format::Obj, b"o a\nv 0 0 0\nv 1 0 0\nv 0 1 0 1 0 0\nvn 0 0 1\nf 1//1 2//1 3//1\ng b\nv 1 1 1\nf 2 4 3\n".to_vec()),
         (Format::Off, b"OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 1\n3 0 1 2\n3 1 3 2\n".to_vec()),
@@ -182,7 +226,10 @@ fn seeds() -> Vec<(Format, Vec<u8>)> {
 fn never_panics(format: Format, bytes: &[u8]) {
     match parse(bytes, format, Path::new("fuzz")) {
         Ok(m) => m.check().unwrap(),
-        Err(e) => assert!(!e.message.contains("internal error"), "a reader panicked on {bytes:?}: {e}"),
+        Err(e) => assert!(
+            !e.message.contains("internal error"),
+            "a reader panicked on {bytes:?}: {e}"
+        ),
     }
 }
 
@@ -232,7 +279,8 @@ fn fuzz_corpus() {
 fn load_names_unknown_formats_and_missing_files() {
     let e = vunify::mesh::load(Path::new("model.stl"), &CleanOptions::default()).unwrap_err();
     assert!(e.to_string().contains("model.stl") && e.message.contains("unknown mesh format"));
-    let e = vunify::mesh::load(Path::new("/nonexistent/x.obj"), &CleanOptions::default()).unwrap_err();
+    let e =
+        vunify::mesh::load(Path::new("/nonexistent/x.obj"), &CleanOptions::default()).unwrap_err();
     assert!(e.to_string().contains("/nonexistent/x.obj") && e.message.contains("cannot read"));
     // Everything degenerate after welding: an error, not an empty tree.
     let dir = std::env::temp_dir().join(format!("vunify-input-{}", std::process::id()));

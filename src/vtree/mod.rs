@@ -14,7 +14,9 @@ mod format;
 pub use build::{BuildOptions, BuildStats, build};
 pub use check::{check, check_cut};
 pub use extract::{Cut, cut_at_error, cut_at_merges, cut_at_triangles};
-pub use format::{FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, read, read_bytes, to_bytes, write};
+pub use format::{
+    FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, read, read_bytes, to_bytes, write,
+};
 
 use crate::simplify::Metric;
 use bytemuck::{Pod, Zeroable};

@@ -30,9 +30,17 @@ pub fn scene(meshes: &[Mesh], spacing: f32) -> Mesh {
     for (i, m) in meshes.iter().enumerate() {
         let base = out.positions.len() as u32;
         let start = out.triangles.len() as u32;
-        out.positions.extend(m.positions.iter().map(|p| *p + Vec3::X * spacing * i as f32));
-        out.triangles.extend(m.triangles.iter().map(|t| t.map(|v| v + base)));
-        out.parts.push(Part { name: format!("part{i}"), triangles: start..out.triangles.len() as u32 });
+        out.positions.extend(
+            m.positions
+                .iter()
+                .map(|p| *p + Vec3::X * spacing * i as f32),
+        );
+        out.triangles
+            .extend(m.triangles.iter().map(|t| t.map(|v| v + base)));
+        out.parts.push(Part {
+            name: format!("part{i}"),
+            triangles: start..out.triangles.len() as u32,
+        });
     }
     out
 }
@@ -58,8 +66,12 @@ impl Rng {
 /// Random triangle soup over few vertices (so edges are shared, non-manifold and repeated), cleaned.
 pub fn random_soup(seed: u64, vertices: u32, triangles: u32) -> Mesh {
     let mut r = Rng(seed);
-    let p: Vec<Vec3> = (0..vertices).map(|_| Vec3::new(r.f32(), r.f32(), r.f32())).collect();
-    let t: Vec<[u32; 3]> = (0..triangles).map(|_| [r.below(vertices), r.below(vertices), r.below(vertices)]).collect();
+    let p: Vec<Vec3> = (0..vertices)
+        .map(|_| Vec3::new(r.f32(), r.f32(), r.f32()))
+        .collect();
+    let t: Vec<[u32; 3]> = (0..triangles)
+        .map(|_| [r.below(vertices), r.below(vertices), r.below(vertices)])
+        .collect();
     clean(Mesh::from_triangles(p, t), &CleanOptions::default()).0
 }
 
@@ -83,7 +95,11 @@ pub fn models_dir() -> Option<PathBuf> {
     match std::env::var_os("VUNIFY_MODELS") {
         Some(d) => {
             let d = PathBuf::from(d);
-            assert!(d.is_dir(), "VUNIFY_MODELS={} is not a directory", d.display());
+            assert!(
+                d.is_dir(),
+                "VUNIFY_MODELS={} is not a directory",
+                d.display()
+            );
             Some(d)
         }
         None => {
