@@ -8,7 +8,7 @@ use std::time::Instant;
 use vunify::mesh::{self, CleanOptions};
 use vunify::simplify::Metric;
 use vunify::simplify::metric::HybridWeights;
-use vunify::vtree::{self, BuildOptions};
+use vunify::vtree::{self, BuildOptions, Schedule};
 
 /// The model `vunify` runs on when given no command (MIT-licensed, see assets/README.md).
 const DEFAULT_MODEL: &str = "assets/cessna.obj";
@@ -75,6 +75,10 @@ struct BuildArgs {
     /// hybrid (seed 001: w1·squared distance + w2·feature error).
     #[arg(long, value_enum, default_value_t = Metric::Qem)]
     metric: Metric,
+    /// Merge order: passes (default; non-overlapping cheapest merges per pass, as meshoptimizer does)
+    /// or greedy (strictly the cheapest pair each time, the paper's algorithm; slower).
+    #[arg(long, value_enum, default_value_t = Schedule::Passes)]
+    schedule: Schedule,
     /// Vertices without an edge between them are merge candidates when closer than this fraction of
     /// the bounding-box diagonal (0 turns such pairs off until separate parts must be joined).
     #[arg(long, default_value_t = BuildOptions::default().pair_distance)]
@@ -163,6 +167,7 @@ fn default_job() -> Result<()> {
         input,
         output: Some(out_dir.join("cessna.vtree")),
         metric: Metric::Qem,
+        schedule: Schedule::Passes,
         pair_distance: BuildOptions::default().pair_distance,
         max_pairs: BuildOptions::default().max_pairs_per_vertex,
         sharp_angle: BuildOptions::default().sharp_angle_deg,
@@ -206,6 +211,7 @@ fn build(args: BuildArgs) -> Result<()> {
     let load_secs = t0.elapsed().as_secs_f64();
     let options = BuildOptions {
         metric: args.metric,
+        schedule: args.schedule,
         pair_distance: args.pair_distance,
         max_pairs_per_vertex: args.max_pairs,
         sharp_angle_deg: args.sharp_angle,
@@ -250,7 +256,13 @@ fn build(args: BuildArgs) -> Result<()> {
         cleaned.degenerate_faces,
         cleaned.duplicate_faces
     );
-    println!("metric     {}", args.metric.name());
+    println!(
+        "metric     {}, {:?} schedule ({} rounds, {} pairs priced)",
+        args.metric.name(),
+        args.schedule,
+        stats.rounds,
+        stats.pricings
+    );
     println!(
         "tree       {} nodes ({} leaves), one root, depth {}",
         stats.nodes, stats.leaves, stats.depth

@@ -7,11 +7,16 @@ use glam::Vec3;
 use proptest::prelude::*;
 use vunify::mesh::{CleanOptions, Mesh};
 use vunify::simplify::Metric;
-use vunify::vtree::{self, BuildOptions, VertexTree};
+use vunify::vtree::{self, BuildOptions, Schedule, VertexTree};
 
 fn build(mesh: &Mesh, metric: Metric) -> VertexTree {
+    build_with(mesh, metric, Schedule::Passes)
+}
+
+fn build_with(mesh: &Mesh, metric: Metric, schedule: Schedule) -> VertexTree {
     let options = BuildOptions {
         metric,
+        schedule,
         ..Default::default()
     };
     vtree::build(mesh, &options, &mut |_, _| {})
@@ -103,11 +108,13 @@ fn fig2_tetrahedron_and_triangle_build_to_one_root() {
         Metric::EdgeLength,
         Metric::Hybrid,
     ] {
-        let tree = build(&mesh, metric);
-        assert_tree_invariants(&mesh, &tree);
-        assert_eq!(tree.nodes.len(), 13);
-        // Five triangles in all vanish along the way; the tetrahedron's 4 before the parts are joined.
-        assert_eq!(tree.triangles.len(), 5);
+        for schedule in [Schedule::Passes, Schedule::Greedy] {
+            let tree = build_with(&mesh, metric, schedule);
+            assert_tree_invariants(&mesh, &tree);
+            assert_eq!(tree.nodes.len(), 13);
+            // Five triangles in all vanish along the way; the tetrahedron's 4 before the parts are joined.
+            assert_eq!(tree.triangles.len(), 5);
+        }
     }
 }
 
@@ -125,23 +132,25 @@ fn fig2_tetrahedron_and_triangle_build_to_one_root() {
 #[test]
 fn strip_first_merge_is_a_free_boundary_slide() {
     let mesh = grid(2, 1, |_, _| 0.0);
-    let tree = build(&mesh, Metric::Qem);
-    assert_tree_invariants(&mesh, &tree);
-    assert_eq!((tree.leaf_count, tree.internal_count()), (6, 5));
-    let first = &tree.nodes[6];
-    let mut kids = first.children;
-    kids.sort_unstable();
-    assert!([[0, 1], [1, 2], [3, 4], [4, 5]].contains(&kids), "{kids:?}");
-    assert_eq!(first.error, 0.0);
-    let corner = if kids.contains(&1) {
-        kids[0] + kids[1] - 1
-    } else {
-        kids[0] + kids[1] - 4
-    };
-    assert_eq!(first.position(), mesh.positions[corner as usize]);
-    assert_eq!(tree.vanishing(6).len(), 1);
-    // All four triangles are gone by the root, and errors only grow.
-    assert_eq!(tree.triangles.len(), 4);
+    for schedule in [Schedule::Passes, Schedule::Greedy] {
+        let tree = build_with(&mesh, Metric::Qem, schedule);
+        assert_tree_invariants(&mesh, &tree);
+        assert_eq!((tree.leaf_count, tree.internal_count()), (6, 5));
+        let first = &tree.nodes[6];
+        let mut kids = first.children;
+        kids.sort_unstable();
+        assert!([[0, 1], [1, 2], [3, 4], [4, 5]].contains(&kids), "{kids:?}");
+        assert_eq!(first.error, 0.0);
+        let corner = if kids.contains(&1) {
+            kids[0] + kids[1] - 1
+        } else {
+            kids[0] + kids[1] - 4
+        };
+        assert_eq!(first.position(), mesh.positions[corner as usize]);
+        assert_eq!(tree.vanishing(6).len(), 1);
+        // All four triangles are gone by the root, and errors only grow.
+        assert_eq!(tree.triangles.len(), 4);
+    }
 }
 
 /// Two separate triangles far apart, nothing to pair at the default radius: the queue runs dry with two
@@ -219,18 +228,20 @@ proptest! {
 
     /// Random scenes of bumpy grids: all invariants, every metric.
     #[test]
-    fn random_scenes_keep_every_invariant(seed in any::<u64>(), metric in 0u32..4) {
+    fn random_scenes_keep_every_invariant(seed in any::<u64>(), metric in 0u32..4, greedy in any::<bool>()) {
         let mesh = random_scene(seed);
-        let tree = build(&mesh, Metric::from_code(metric).unwrap());
+        let schedule = if greedy { Schedule::Greedy } else { Schedule::Passes };
+        let tree = build_with(&mesh, Metric::from_code(metric).unwrap(), schedule);
         assert_tree_invariants(&mesh, &tree);
     }
 
     /// Random soups: non-manifold edges, fans, isolated triangles, coincident merges everywhere.
     #[test]
-    fn random_soups_keep_every_invariant(seed in any::<u64>(), vertices in 3u32..40, triangles in 1u32..120, metric in 0u32..4) {
+    fn random_soups_keep_every_invariant(seed in any::<u64>(), vertices in 3u32..40, triangles in 1u32..120, metric in 0u32..4, greedy in any::<bool>()) {
         let mesh = random_soup(seed, vertices, triangles);
         prop_assume!(!mesh.triangles.is_empty());
-        let tree = build(&mesh, Metric::from_code(metric).unwrap());
+        let schedule = if greedy { Schedule::Greedy } else { Schedule::Passes };
+        let tree = build_with(&mesh, Metric::from_code(metric).unwrap(), schedule);
         assert_tree_invariants(&mesh, &tree);
     }
 }

@@ -114,8 +114,22 @@ impl Collapser {
             .map(|&f| (f, self.corners[f as usize]))
     }
 
+    /// `g(v)` without path compression, for readers that share the collapser across threads.
+    pub fn root(&self, v: u32) -> u32 {
+        let mut r = v;
+        while self.merged_into[r as usize] != ALIVE {
+            r = self.merged_into[r as usize];
+        }
+        r
+    }
+
+    /// How many live triangles are around a live slot.
+    pub fn face_count(&self, slot: u32) -> usize {
+        self.faces_of(slot).count()
+    }
+
     /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once, in slot order.
-    pub fn neighbors(&mut self, slot: u32, out: &mut Vec<Neighbor>) {
+    pub fn neighbors(&self, slot: u32, out: &mut Vec<Neighbor>) {
         out.clear();
         for (_, c) in self.faces_of(slot) {
             for v in c {
@@ -129,7 +143,7 @@ impl Collapser {
         }
         for i in 0..self.extras[slot as usize].len() {
             let e = self.extras[slot as usize][i];
-            let v = self.find(e & SLOT_MASK);
+            let v = self.root(e & SLOT_MASK);
             if v != slot {
                 out.push(Neighbor {
                     slot: v,

@@ -1,19 +1,26 @@
-//! The offline builder (seed 001 §2.3): greedy `vunify` of the cheapest candidate pair until one vertex
-//! is left, recording each merge as a tree node.
+//! The offline builder (seed 001 §2.3): merge the cheapest candidate pair, again and again, until one
+//! vertex is left, recording each merge as a tree node.
 //!
 //! 1. classify edges, build quadrics (with constraint planes on boundaries and creases);
-//! 2. queue every edge and every close non-edge pair (outside each other's 2-ring);
-//! 3. pop the cheapest valid pair; if its merge would flip a triangle, re-queue it once at a penalty;
-//! 4. merge, record the node and the triangles that vanish, re-price the merged vertex's pairs;
-//! 5. when the queue runs dry with more than one vertex left (separate parts, after each collapsed to a
-//!    point), pair the survivors within a doubled radius and go on: the result is one tree, one root.
+//! 2. candidates: every edge, and every close non-edge pair outside each other's 2-ring;
+//! 3. merge in order of cost, skipping merges that would flip a triangle while there are others;
+//! 4. record the node: position, attributes, bounds, error, and the triangles that vanish;
+//! 5. when no candidate is left but several vertices are (separate parts, each collapsed to a point),
+//!    pair the survivors within a doubling radius and go on: the result is one tree with one root.
+//!
+//! Step 3 has two schedules. [`Schedule::Greedy`] is the paper's: one priority queue, always the single
+//! cheapest pair. [`Schedule::Passes`] (the default) is meshoptimizer's: each pass prices every
+//! candidate at once, sorts them, and merges the cheapest ones that share no vertex, up to a bounded
+//! share of the mesh and of the cost range. Priced candidates are never stale within a pass, so the
+//! order is greedy up to that bound, and the work is sorting and streaming arrays instead of chasing a
+//! heap through cache misses: several times faster at the same quality (see BENCHMARKS.md).
 
 use super::{NONE, Node, PartInfo, VertexTree};
 use crate::mesh::Mesh;
 use crate::simplify::bounds::{NormalCone, Sphere};
 use crate::simplify::collapse::{Collapser, Neighbor};
 use crate::simplify::features;
-use crate::simplify::metric::{HybridWeights, Pricing, merged_weight};
+use crate::simplify::metric::{Candidate, HybridWeights, Pricing, merged_weight};
 use crate::simplify::pairs::close_pairs;
 use crate::simplify::{Metric, quadric::Quadric};
 use glam::Vec3;
@@ -22,11 +29,23 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 use std::time::Instant;
 
+/// How merges are ordered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum Schedule {
+    /// Passes of non-overlapping cheapest merges (meshoptimizer's scheme).
+    #[default]
+    Passes,
+    /// Strictly the cheapest pair each time, from one priority queue (the paper's algorithm).
+    Greedy,
+}
+
 /// Builder settings; `Default` gives the documented defaults.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BuildOptions {
     /// How merges are priced and placed. Default: `Qem`.
     pub metric: Metric,
+    /// Default: `Passes`.
+    pub schedule: Schedule,
     /// Non-edge pairs closer than this fraction of the bounding-box diagonal are candidates.
     /// Default 0.001: bridges the seams and hairline gaps between the parts of scanned and CAD scenes;
     /// wider radii flood dense scans with pairs (0.005 gives the dragon 625k pairs and doubles the build
@@ -45,6 +64,7 @@ impl Default for BuildOptions {
     fn default() -> Self {
         BuildOptions {
             metric: Metric::Qem,
+            schedule: Schedule::Passes,
             pair_distance: 0.001,
             max_pairs_per_vertex: 2,
             sharp_angle_deg: 120.0,
@@ -63,13 +83,14 @@ pub struct BuildStats {
     pub parts: u32,
     pub feature_edges: u32,
     pub proximity_pairs: u32,
-    /// Merges put back in the queue because they would have flipped a triangle.
+    /// Merges postponed because they would have flipped a triangle.
     pub flip_deferrals: u32,
-    /// Times the queue ran dry with several roots and the pair radius was doubled.
+    /// Times no candidate was left with several roots, and the pair radius grew.
     pub widenings: u32,
-    /// Queue entries pushed and popped (most pops are stale entries, skipped).
-    pub queue_pushes: u64,
-    pub queue_pops: u64,
+    /// Passes (`Schedule::Passes`) or queue pops (`Schedule::Greedy`).
+    pub rounds: u64,
+    /// Candidate pairs priced.
+    pub pricings: u64,
     pub seconds: f64,
 }
 
@@ -83,26 +104,34 @@ pub enum BuildError {
     Invalid(String),
 }
 
-// Flags in the high bits of `Entry::b`.
+// Flags in the high bits of a queued pair's `b`.
 const NO_EDGE: u32 = 1 << 31;
 const PENALIZED: u32 = 1 << 30;
 const SLOT: u32 = PENALIZED - 1;
 
-/// A merge that would flip a triangle costs this many times more, plus a quarter of its squared length
-/// (a fold moves the surface by about that much), when it comes round again.
+/// Greedy schedule: a merge that would flip a triangle costs this many times more, plus a quarter of its
+/// squared length (a fold moves the surface by about that much), when it comes round again.
 const FLIP_PENALTY: f64 = 10.0;
+
+/// Passes schedule: each pass aims to merge this share of the live vertices. Smaller is closer to
+/// greedy order and slower (more passes); a sixth matches the greedy schedule's quality on every model
+/// of the benchmark within a few per cent.
+const PASS_SHARE: f64 = 1.0 / 6.0;
+/// A pass stops at this multiple of the cost of its goal-th candidate (meshoptimizer's `kPassErrorBound`):
+/// locked vertices make it skip many candidates, so it must reach somewhat past the goal's cost.
+const PASS_COST_BOUND: f32 = 1.5;
 
 /// How many merges between progress callbacks.
 const PROGRESS_EVERY: usize = 4096;
 
-/// A queued pair. Valid while both slots are live and neither changed after `created` (a merge count).
+/// A priced pair. `cost` is `f32::to_bits` of a non-negative cost: for those, integer order is
+/// numeric order, and integer compares keep sorting and the heap cheap.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
-    /// `f32::to_bits` of a non-negative cost: for those, integer order is numeric order, and integer
-    /// compares keep the heap's sift loops cheap (they dominate the build's profile).
     cost: u32,
     a: u32,
     b: u32,
+    /// Greedy schedule: valid while neither slot changed after this merge count.
     created: u32,
 }
 
@@ -167,6 +196,355 @@ fn unit_normal(p: &[Vec3], c: [u32; 3]) -> Vec3 {
     (b - a).cross(d - a).normalize_or_zero()
 }
 
+fn sphere_of(n: &Node) -> Sphere {
+    Sphere {
+        center: Vec3::from_slice(&n.sphere),
+        radius: n.sphere[3],
+    }
+}
+
+fn cone_of_node(n: &Node) -> NormalCone {
+    NormalCone {
+        axis: Vec3::from_slice(&n.cone),
+        cos_angle: n.cone[3],
+    }
+}
+
+/// The state of a build: the working mesh, per-slot merge data, and the tree so far.
+struct Builder<'m> {
+    mesh: &'m Mesh,
+    collapser: Collapser,
+    quadrics: Vec<Quadric>,
+    /// Table 1 weight of each slot (hybrid metric).
+    weights: Vec<f32>,
+    /// Surface area each slot stands for: the weight of attribute averages.
+    mass: Vec<f32>,
+    /// The tree node each live slot currently is.
+    node_of: Vec<u32>,
+    nodes: Vec<Node>,
+    triangles: Vec<[u32; 3]>,
+    vanish_offsets: Vec<u32>,
+    metric: Metric,
+    hybrid: HybridWeights,
+    mean_edge_length: f32,
+    stats: BuildStats,
+    removed: Vec<(u32, crate::simplify::collapse::Vanish)>,
+}
+
+impl Builder<'_> {
+    fn price(&self, a: u32, b: u32, edge: bool) -> Candidate {
+        let pricing = Pricing {
+            metric: self.metric,
+            hybrid: self.hybrid,
+            mean_edge_length: self.mean_edge_length,
+            vertex_weight: &self.weights,
+        };
+        let c = &self.collapser;
+        pricing.price(
+            c.positions[a as usize],
+            &self.quadrics[a as usize],
+            a,
+            c.positions[b as usize],
+            &self.quadrics[b as usize],
+            b,
+            edge,
+        )
+    }
+
+    fn merges(&self) -> u32 {
+        self.nodes.len() as u32 - self.mesh.positions.len() as u32
+    }
+
+    /// `vunify(a, b)` at the priced position, recorded as a new node. Returns the surviving slot.
+    fn merge(&mut self, a: u32, b: u32, cand: &Candidate) -> u32 {
+        // Keep the slot with more triangles: fewer to rewrite.
+        let (a, b) = if self.collapser.face_count(b) > self.collapser.face_count(a) {
+            (b, a)
+        } else {
+            (a, b)
+        };
+        self.removed.clear();
+        self.collapser.unify(a, b, cand.position, &mut self.removed);
+        let (ai, bi) = (a as usize, b as usize);
+        let u = self.nodes.len() as u32;
+        let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
+        self.nodes[s].parent = u;
+        self.nodes[t].parent = u;
+        let (ns, nt) = (self.nodes[s], self.nodes[t]);
+        let q = self.quadrics[bi];
+        self.quadrics[ai] += q;
+        self.weights[ai] = merged_weight(self.weights[ai], self.weights[bi]);
+        let (ms, mt) = (self.mass[ai], self.mass[bi]);
+        self.mass[ai] = ms + mt;
+        let (fs, ft) = if ms + mt > 0.0 {
+            (ms / (ms + mt), mt / (ms + mt))
+        } else {
+            (0.5, 0.5)
+        };
+        let blend = |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * fs + Vec3::from_array(y) * ft;
+        let sphere = sphere_of(&ns)
+            .union(sphere_of(&nt))
+            .union_point(cand.position);
+        let c = &self.collapser;
+        let around = cone_of(
+            c.faces_of(a)
+                .map(|(_, f)| unit_normal(&c.positions, f))
+                .filter(|n| *n != Vec3::ZERO),
+        );
+        let cone = cone_of_node(&ns).union(cone_of_node(&nt)).union(around);
+        self.nodes.push(Node {
+            position: cand.position.to_array(),
+            error: (cand.error as f32).max(ns.error).max(nt.error),
+            color: blend(ns.color, nt.color).to_array(),
+            parent: NONE,
+            normal: blend(ns.normal, nt.normal).normalize_or_zero().to_array(),
+            children: [s as u32, t as u32],
+            sphere: [
+                sphere.center.x,
+                sphere.center.y,
+                sphere.center.z,
+                sphere.radius,
+            ],
+            cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
+        });
+        self.node_of[ai] = u;
+        let mesh = self.mesh;
+        self.triangles.extend(
+            self.removed
+                .iter()
+                .map(|&(f, _)| mesh.triangles[f as usize]),
+        );
+        self.vanish_offsets.push(self.triangles.len() as u32);
+        a
+    }
+
+    /// No candidate is left but several isolated vertices are: pair each with its nearest others within
+    /// a radius that doubles until some pair is found. Returns the new pairs.
+    fn widen(&mut self, radius: &mut f32, per_vertex: usize) -> Vec<(u32, u32)> {
+        self.stats.widenings += 1;
+        let c = &self.collapser;
+        let live: Vec<(u32, Vec3)> = c
+            .live_slots()
+            .map(|s| (s, c.positions[s as usize]))
+            .collect();
+        let pairs = loop {
+            let pairs = close_pairs(&live, *radius, per_vertex.max(1), |_, _| true);
+            if !pairs.is_empty() {
+                break pairs;
+            }
+            *radius *= 2.0;
+        };
+        for &(a, b) in &pairs {
+            self.collapser.add_proximity_pair(a, b);
+        }
+        pairs
+    }
+
+    /// Every candidate pair of the current mesh, once, priced in parallel.
+    fn priced_candidates(&mut self) -> Vec<Entry> {
+        let live: Vec<u32> = self.collapser.live_slots().collect();
+        let this = &*self;
+        let out: Vec<Entry> = live
+            .par_iter()
+            .fold_with(
+                (Vec::new(), Vec::new()),
+                |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &a| {
+                    this.collapser.neighbors(a, &mut scratch);
+                    for nb in scratch.iter().filter(|nb| nb.slot > a) {
+                        let cost = key(this.price(a, nb.slot, nb.edge).cost);
+                        out.push(Entry {
+                            cost,
+                            a,
+                            b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
+                            created: 0,
+                        });
+                    }
+                    (out, scratch)
+                },
+            )
+            .map(|(out, _)| out)
+            .reduce(Vec::new, |mut x, mut y| {
+                x.append(&mut y);
+                x
+            });
+        self.stats.pricings += out.len() as u64;
+        out
+    }
+
+    fn run_passes(
+        &mut self,
+        radius: &mut f32,
+        per_vertex: usize,
+        progress: &mut dyn FnMut(usize, usize),
+    ) {
+        let total = self.mesh.positions.len() - 1;
+        // `touched[s] == pass`: slot s merged (or died) in that pass, so its pairs' prices are stale.
+        let mut touched: Vec<u32> = vec![0; self.mesh.positions.len()];
+        let mut allow_flips = false;
+        let mut last_report = 0;
+        // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
+        let mut cands = self.priced_candidates();
+        let mut survivors: Vec<u32> = Vec::new();
+        let mut scratch: Vec<Neighbor> = Vec::new();
+        while self.collapser.live_count() > 1 {
+            if cands.is_empty() {
+                let pairs = self.widen(radius, per_vertex);
+                cands.extend(pairs.into_iter().map(|(a, b)| Entry {
+                    cost: key(self.price(a, b, false).cost),
+                    a,
+                    b: b | NO_EDGE,
+                    created: 0,
+                }));
+                continue;
+            }
+            self.stats.rounds += 1;
+            let pass = self.stats.rounds as u32;
+            cands.par_sort_unstable_by_key(|e| (e.cost, e.a, e.b));
+            let goal = ((self.collapser.live_count() as f64 * PASS_SHARE).ceil() as usize).max(1);
+            let bound = cands
+                .get(goal)
+                .map_or(f32::INFINITY, |e| f32::from_bits(e.cost) * PASS_COST_BOUND);
+            let mut merged = 0;
+            let mut deferred = 0;
+            survivors.clear();
+            for e in &cands {
+                if merged >= goal || (merged > goal / 6 && f32::from_bits(e.cost) > bound) {
+                    break;
+                }
+                let (a, b) = (e.a, e.b & SLOT);
+                if touched[a as usize] == pass || touched[b as usize] == pass {
+                    continue;
+                }
+                let cand = self.price(a, b, e.b & NO_EDGE == 0);
+                if !allow_flips && self.collapser.flips(a, b, cand.position) {
+                    deferred += 1;
+                    continue;
+                }
+                let survivor = self.merge(a, b, &cand);
+                // Neither end moves again this pass: the costs priced for its other pairs still hold.
+                touched[a as usize] = pass;
+                touched[b as usize] = pass;
+                survivors.push(survivor);
+                merged += 1;
+            }
+            self.stats.flip_deferrals += deferred;
+            // A pass in which every candidate would flip something makes no progress: allow flips once.
+            allow_flips = merged == 0;
+
+            // Drop the stale pairs, price the survivors' pairs anew (each pair once).
+            cands.retain(|e| {
+                touched[e.a as usize] != pass && touched[(e.b & SLOT) as usize] != pass
+            });
+            let this = &*self;
+            let fresh: Vec<Entry> = survivors
+                .par_iter()
+                .fold_with(
+                    (Vec::new(), Vec::new()),
+                    |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &s| {
+                        this.collapser.neighbors(s, &mut scratch);
+                        for nb in &scratch {
+                            // A pair of two survivors is priced by the smaller slot only.
+                            if touched[nb.slot as usize] == pass && nb.slot < s {
+                                continue;
+                            }
+                            let cost = key(this.price(s, nb.slot, nb.edge).cost);
+                            out.push(Entry {
+                                cost,
+                                a: s,
+                                b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
+                                created: 0,
+                            });
+                        }
+                        (out, scratch)
+                    },
+                )
+                .map(|(out, _)| out)
+                .reduce(Vec::new, |mut x, mut y| {
+                    x.append(&mut y);
+                    x
+                });
+            self.stats.pricings += fresh.len() as u64;
+            cands.extend(fresh);
+            let _ = &mut scratch;
+            let done = self.merges() as usize;
+            if done - last_report >= PROGRESS_EVERY {
+                progress(done, total);
+                last_report = done;
+            }
+        }
+    }
+
+    fn run_greedy(
+        &mut self,
+        radius: &mut f32,
+        per_vertex: usize,
+        progress: &mut dyn FnMut(usize, usize),
+    ) {
+        let total = self.mesh.positions.len() - 1;
+        let mut heap = BinaryHeap::from(self.priced_candidates());
+        let mut changed_at = vec![0u32; self.mesh.positions.len()];
+        let mut neighbors: Vec<Neighbor> = Vec::new();
+        loop {
+            while let Some(e) = heap.pop() {
+                self.stats.rounds += 1;
+                let (a, b) = (e.a, e.b & SLOT);
+                let c = &self.collapser;
+                if !c.is_live(a)
+                    || !c.is_live(b)
+                    || changed_at[a as usize] > e.created
+                    || changed_at[b as usize] > e.created
+                {
+                    continue; // stale
+                }
+                let cand = self.price(a, b, e.b & NO_EDGE == 0);
+                if e.b & PENALIZED == 0 && c.flips(a, b, cand.position) {
+                    let gap2 =
+                        c.positions[a as usize].distance_squared(c.positions[b as usize]) as f64;
+                    let cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
+                    heap.push(Entry {
+                        cost,
+                        a,
+                        b: e.b | PENALIZED,
+                        created: self.merges(),
+                    });
+                    self.stats.flip_deferrals += 1;
+                    continue;
+                }
+                let s = self.merge(a, b, &cand);
+                let now = self.merges();
+                changed_at[s as usize] = now;
+                self.collapser.neighbors(s, &mut neighbors);
+                self.stats.pricings += neighbors.len() as u64;
+                for nb in &neighbors {
+                    let cost = key(self.price(s, nb.slot, nb.edge).cost);
+                    heap.push(Entry {
+                        cost,
+                        a: s,
+                        b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
+                        created: now,
+                    });
+                }
+                if now as usize % PROGRESS_EVERY == 0 {
+                    progress(now as usize, total);
+                }
+            }
+            if self.collapser.live_count() <= 1 {
+                break;
+            }
+            let now = self.merges();
+            for (a, b) in self.widen(radius, per_vertex) {
+                let cost = key(self.price(a, b, false).cost);
+                heap.push(Entry {
+                    cost,
+                    a,
+                    b: b | NO_EDGE,
+                    created: now,
+                });
+            }
+        }
+    }
+}
+
 /// Builds the vertex tree of `mesh`. `progress(done, total)` is called every few thousand merges.
 pub fn build(
     mesh: &Mesh,
@@ -186,8 +564,6 @@ pub fn build(
 
     // 1. Features and quadrics.
     let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
-    let mut quadrics = feats.quadrics;
-    let mut weights = feats.vertex_weight;
     let mut collapser = Collapser::new(mesh.positions.clone(), &mesh.triangles);
 
     // Leaves: sphere over the 1-ring (so it covers the triangles around the leaf), cone of those faces.
@@ -195,9 +571,7 @@ pub fn build(
         .into_par_iter()
         .map(|v| {
             let p = mesh.positions[v as usize];
-            let mut radius = 0.0f32;
-            let mut area = 0.0f32;
-            let mut nsum = Vec3::ZERO;
+            let (mut radius, mut area, mut nsum) = (0.0f32, 0.0f32, Vec3::ZERO);
             for (_, c) in collapser.faces_of(v) {
                 let [a, b, d] = c.map(|w| mesh.positions[w as usize]);
                 let cross = (b - a).cross(d - a);
@@ -246,31 +620,8 @@ pub fn build(
         });
         mass.push(area);
     }
-    let mut node_of: Vec<u32> = (0..n as u32).collect();
 
-    let pricing = Pricing {
-        metric: options.metric,
-        hybrid: options.hybrid,
-        mean_edge_length: feats.mean_edge_length,
-        vertex_weight: &[],
-    };
-    let price = |c: &Collapser, q: &[Quadric], w: &[f32], a: u32, b: u32, edge: bool| {
-        let pricing = Pricing {
-            vertex_weight: w,
-            ..pricing
-        };
-        pricing.price(
-            c.positions[a as usize],
-            &q[a as usize],
-            a,
-            c.positions[b as usize],
-            &q[b as usize],
-            b,
-            edge,
-        )
-    };
-
-    // 2. The initial queue: all edges, then close pairs outside each other's 2-ring.
+    // 2. Close non-edge pairs (edges come from the working mesh itself).
     let mut stats = BuildStats {
         leaves: n as u32,
         input_triangles: mesh.triangles.len() as u32,
@@ -278,16 +629,6 @@ pub fn build(
         feature_edges: feats.is_feature.iter().filter(|&&f| f).count() as u32,
         ..Default::default()
     };
-    let mut entries: Vec<Entry> = feats
-        .edges
-        .par_iter()
-        .map(|&(a, b)| Entry {
-            cost: key(price(&collapser, &quadrics, &weights, a, b, true).cost),
-            a,
-            b,
-            created: 0,
-        })
-        .collect();
     if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
         let adjacency = Adjacency::new(n, &feats.edges);
         let points: Vec<(u32, Vec3)> = mesh
@@ -306,173 +647,42 @@ pub fn build(
         for &(a, b) in &pairs {
             collapser.add_proximity_pair(a, b);
         }
-        entries.par_extend(pairs.par_iter().map(|&(a, b)| Entry {
-            cost: key(price(&collapser, &quadrics, &weights, a, b, false).cost),
-            a,
-            b: b | NO_EDGE,
-            created: 0,
-        }));
     }
-    drop(feats.edges);
-    let mut heap = BinaryHeap::from(entries);
 
     // 3-5. Merge until one vertex is left.
-    let mut changed_at = vec![0u32; n];
-    let mut merges: u32 = 0;
-    let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
-    let mut vanish_offsets: Vec<u32> = Vec::with_capacity(n);
-    vanish_offsets.push(0);
-    let mut removed = Vec::new();
-    let mut neighbors: Vec<Neighbor> = Vec::new();
+    let mut builder = Builder {
+        mesh,
+        collapser,
+        quadrics: feats.quadrics,
+        weights: feats.vertex_weight,
+        mass,
+        node_of: (0..n as u32).collect(),
+        nodes,
+        triangles: Vec::with_capacity(mesh.triangles.len()),
+        vanish_offsets: {
+            let mut v = Vec::with_capacity(n);
+            v.push(0);
+            v
+        },
+        metric: options.metric,
+        hybrid: options.hybrid,
+        mean_edge_length: feats.mean_edge_length,
+        stats,
+        removed: Vec::new(),
+    };
     let mut radius = options.pair_distance.max(1e-3) * diagonal;
-    let total = n - 1;
-    loop {
-        while let Some(e) = heap.pop() {
-            stats.queue_pops += 1;
-            let (mut a, mut b) = (e.a, e.b & SLOT);
-            if !collapser.is_live(a)
-                || !collapser.is_live(b)
-                || changed_at[a as usize] > e.created
-                || changed_at[b as usize] > e.created
-            {
-                continue; // stale
-            }
-            let edge = e.b & NO_EDGE == 0;
-            let cand = price(&collapser, &quadrics, &weights, a, b, edge);
-            if e.b & PENALIZED == 0 && collapser.flips(a, b, cand.position) {
-                let gap2 = collapser.positions[a as usize]
-                    .distance_squared(collapser.positions[b as usize])
-                    as f64;
-                let cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
-                heap.push(Entry {
-                    cost,
-                    a,
-                    b: e.b | PENALIZED,
-                    created: merges,
-                });
-                stats.flip_deferrals += 1;
-                continue;
-            }
-            // Keep the slot with more triangles: fewer to rewrite.
-            if collapser.faces_of(b).count() > collapser.faces_of(a).count() {
-                std::mem::swap(&mut a, &mut b);
-            }
-            removed.clear();
-            collapser.unify(a, b, cand.position, &mut removed);
-            let (ai, bi) = (a as usize, b as usize);
-            let u = nodes.len() as u32;
-            let (s, t) = (node_of[ai] as usize, node_of[bi] as usize);
-            nodes[s].parent = u;
-            nodes[t].parent = u;
-            let (ns, nt) = (nodes[s], nodes[t]);
-            let q = quadrics[bi];
-            quadrics[ai] += q;
-            weights[ai] = merged_weight(weights[ai], weights[bi]);
-            let (ms, mt) = (mass[ai], mass[bi]);
-            mass[ai] = ms + mt;
-            let (fs, ft) = if ms + mt > 0.0 {
-                (ms / (ms + mt), mt / (ms + mt))
-            } else {
-                (0.5, 0.5)
-            };
-            let blend =
-                |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * fs + Vec3::from_array(y) * ft;
-            let sphere = Sphere {
-                center: Vec3::from_slice(&ns.sphere),
-                radius: ns.sphere[3],
-            }
-            .union(Sphere {
-                center: Vec3::from_slice(&nt.sphere),
-                radius: nt.sphere[3],
-            })
-            .union_point(cand.position);
-            let around = cone_of(
-                collapser
-                    .faces_of(a)
-                    .map(|(_, c)| unit_normal(&collapser.positions, c))
-                    .filter(|n| *n != Vec3::ZERO),
-            );
-            let cone = NormalCone {
-                axis: Vec3::from_slice(&ns.cone),
-                cos_angle: ns.cone[3],
-            }
-            .union(NormalCone {
-                axis: Vec3::from_slice(&nt.cone),
-                cos_angle: nt.cone[3],
-            })
-            .union(around);
-            nodes.push(Node {
-                position: cand.position.to_array(),
-                error: (cand.error as f32).max(ns.error).max(nt.error),
-                color: blend(ns.color, nt.color).to_array(),
-                parent: NONE,
-                normal: blend(ns.normal, nt.normal).normalize_or_zero().to_array(),
-                children: [s as u32, t as u32],
-                sphere: [
-                    sphere.center.x,
-                    sphere.center.y,
-                    sphere.center.z,
-                    sphere.radius,
-                ],
-                cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
-            });
-            node_of[ai] = u;
-            triangles.extend(removed.iter().map(|&(f, _)| mesh.triangles[f as usize]));
-            vanish_offsets.push(triangles.len() as u32);
-            merges += 1;
-            changed_at[ai] = merges;
-
-            collapser.neighbors(a, &mut neighbors);
-            for nb in &neighbors {
-                let cost = key(price(&collapser, &quadrics, &weights, a, nb.slot, nb.edge).cost);
-                let flags = if nb.edge { 0 } else { NO_EDGE };
-                heap.push(Entry {
-                    cost,
-                    a,
-                    b: nb.slot | flags,
-                    created: merges,
-                });
-            }
-            stats.queue_pushes += neighbors.len() as u64;
-            if merges as usize % PROGRESS_EVERY == 0 {
-                progress(merges as usize, total);
-            }
-        }
-        if collapser.live_count() <= 1 {
-            break;
-        }
-        // The queue ran dry with several isolated vertices left: bridge them.
-        stats.widenings += 1;
-        let live: Vec<(u32, Vec3)> = collapser
-            .live_slots()
-            .map(|s| (s, collapser.positions[s as usize]))
-            .collect();
-        let per_vertex = options.max_pairs_per_vertex.max(1);
-        let pairs = loop {
-            let pairs = close_pairs(&live, radius, per_vertex, |_, _| true);
-            if !pairs.is_empty() {
-                break pairs;
-            }
-            radius *= 2.0;
-        };
-        for &(a, b) in &pairs {
-            collapser.add_proximity_pair(a, b);
-            let cost = key(price(&collapser, &quadrics, &weights, a, b, false).cost);
-            heap.push(Entry {
-                cost,
-                a,
-                b: b | NO_EDGE,
-                created: merges,
-            });
-        }
+    match options.schedule {
+        Schedule::Passes => builder.run_passes(&mut radius, options.max_pairs_per_vertex, progress),
+        Schedule::Greedy => builder.run_greedy(&mut radius, options.max_pairs_per_vertex, progress),
     }
-    progress(total, total);
+    progress(n - 1, n - 1);
 
+    let mut stats = builder.stats;
     let tree = VertexTree {
         leaf_count: n as u32,
-        nodes,
-        triangles,
-        vanish_offsets,
+        nodes: builder.nodes,
+        triangles: builder.triangles,
+        vanish_offsets: builder.vanish_offsets,
         metric: options.metric,
         has_colors: mesh.colors.is_some(),
         has_normals: mesh.normals.is_some(),

@@ -11,7 +11,7 @@ mod check;
 mod extract;
 mod format;
 
-pub use build::{BuildOptions, BuildStats, build};
+pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build};
 pub use check::{check, check_cut};
 pub use extract::{Cut, cut_at_error, cut_at_merges, cut_at_triangles};
 pub use format::{
