@@ -122,7 +122,11 @@ impl NormalCone {
     }
 
     pub fn union_normal(self, n: Vec3) -> NormalCone {
-        if n == Vec3::ZERO {
+        // Most normals added to a cone are already inside it: one dot product, no trigonometry.
+        if n == Vec3::ZERO
+            || self.is_full()
+            || (!self.is_empty() && self.axis.dot(n) >= self.cos_angle)
+        {
             self
         } else {
             self.union(NormalCone {

@@ -35,6 +35,8 @@ pub struct Collapser {
     /// `VI`: the slot a merged slot went into, or `ALIVE`.
     merged_into: Vec<u32>,
     live: usize,
+    /// Scratch for the coincidence test, kept to spare an allocation per merge.
+    keys: Vec<([u32; 3], u32)>,
 }
 
 /// A partner of a slot, and whether an edge joins them.
@@ -70,6 +72,7 @@ impl Collapser {
             extras: vec![Vec::new(); n],
             merged_into: vec![ALIVE; n],
             live: n,
+            keys: Vec::new(),
         }
     }
 
@@ -123,9 +126,10 @@ impl Collapser {
         r
     }
 
-    /// How many live triangles are around a live slot.
+    /// How many triangles are listed around a live slot (some may have vanished since it last merged):
+    /// a cheap estimate of its valence.
     pub fn face_count(&self, slot: u32) -> usize {
-        self.faces_of(slot).count()
+        self.faces[slot as usize].len()
     }
 
     /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once, in slot order.
@@ -195,23 +199,22 @@ impl Collapser {
         }
         // Coincident triangles (Fig. 3b): any new duplicate has the merged vertex as a corner, so only
         // the triangles around `a` need comparing. The one that was around `a` before survives.
-        let mut keys: Vec<([u32; 3], usize)> = around_a
-            .iter()
-            .enumerate()
-            .map(|(i, &f)| {
-                let mut k = self.corners[f as usize];
-                k.sort_unstable();
-                (k, i)
-            })
-            .collect();
+        let mut keys = std::mem::take(&mut self.keys);
+        keys.clear();
+        keys.extend(around_a.iter().enumerate().map(|(i, &f)| {
+            let mut k = self.corners[f as usize];
+            k.sort_unstable();
+            (k, i as u32)
+        }));
         keys.sort_unstable();
         for w in keys.windows(2) {
             if w[0].0 == w[1].0 {
-                let f = around_a[w[1].1];
+                let f = around_a[w[1].1 as usize];
                 self.alive_face[f as usize] = false;
                 removed.push((f, Vanish::Coincident));
             }
         }
+        self.keys = keys;
         around_a.retain(|&f| self.alive_face[f as usize]);
         self.faces[ai] = around_a;
 

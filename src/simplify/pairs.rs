@@ -21,6 +21,19 @@ pub fn close_pairs(
     let mut sorted: Vec<([i64; 3], u32, Vec3)> =
         points.iter().map(|&(id, p)| (cell_of(p), id, p)).collect();
     sorted.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
+    // Cell → its run in `sorted`: one hash lookup per neighbouring cell instead of a binary search
+    // through every point.
+    let mut runs: std::collections::HashMap<[i64; 3], (usize, usize), CellHash> =
+        std::collections::HashMap::with_capacity_and_hasher(sorted.len() / 2 + 1, CellHash);
+    let mut i = 0;
+    while i < sorted.len() {
+        let mut j = i + 1;
+        while j < sorted.len() && sorted[j].0 == sorted[i].0 {
+            j += 1;
+        }
+        runs.insert(sorted[i].0, (i, j));
+        i = j;
+    }
     let r2 = radius * radius;
     let mut pairs: Vec<(u32, u32)> = sorted
         .par_iter()
@@ -30,11 +43,10 @@ pub fn close_pairs(
                 for dy in -1..=1 {
                     for dz in -1..=1 {
                         let key = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
-                        let start = sorted.partition_point(|e| e.0 < key);
-                        for &(k2, other, q) in &sorted[start..] {
-                            if k2 != key {
-                                break;
-                            }
+                        let Some(&(start, end)) = runs.get(&key) else {
+                            continue;
+                        };
+                        for &(_, other, q) in &sorted[start..end] {
                             let d2 = p.distance_squared(q);
                             if other != id && d2 <= r2 && keep(id, other) {
                                 near.push((d2, other));
@@ -52,6 +64,38 @@ pub fn close_pairs(
     pairs.par_sort_unstable();
     pairs.dedup();
     pairs
+}
+
+/// A multiplicative hash for grid cells: the default SipHash costs more than the whole distance test.
+#[derive(Clone, Copy, Default)]
+struct CellHash;
+
+impl std::hash::BuildHasher for CellHash {
+    type Hasher = CellHasher;
+    fn build_hasher(&self) -> CellHasher {
+        CellHasher(0)
+    }
+}
+
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
 }
 
 #[cfg(test)]

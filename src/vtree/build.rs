@@ -121,6 +121,10 @@ const PASS_SHARE: f64 = 1.0 / 6.0;
 /// locked vertices make it skip many candidates, so it must reach somewhat past the goal's cost.
 const PASS_COST_BOUND: f32 = 1.5;
 
+/// A pass looks only at its cheapest `PASS_WINDOW × goal` candidates: locking skips about one in
+/// three or four of them, and the cost bound stops most passes well before the window ends.
+const PASS_WINDOW: usize = 4;
+
 /// How many merges between progress callbacks.
 const PROGRESS_EVERY: usize = 4096;
 
@@ -210,6 +214,34 @@ fn cone_of_node(n: &Node) -> NormalCone {
     }
 }
 
+/// Colour, normal, bounding sphere and normal cone of a new node, from its (finished) children and the
+/// triangles now around its slot.
+fn finish_node(node: &mut Node, done: &[Node], blend: [f32; 2], collapser: &Collapser, slot: u32) {
+    let (ns, nt) = (
+        &done[node.children[0] as usize],
+        &done[node.children[1] as usize],
+    );
+    let mix =
+        |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * blend[0] + Vec3::from_array(y) * blend[1];
+    node.color = mix(ns.color, nt.color).to_array();
+    node.normal = mix(ns.normal, nt.normal).normalize_or_zero().to_array();
+    let sphere = sphere_of(ns)
+        .union(sphere_of(nt))
+        .union_point(node.position());
+    node.sphere = [
+        sphere.center.x,
+        sphere.center.y,
+        sphere.center.z,
+        sphere.radius,
+    ];
+    let c = collapser;
+    let mut cone = cone_of_node(ns).union(cone_of_node(nt));
+    for (_, f) in c.faces_of(slot) {
+        cone = cone.union_normal(unit_normal(&c.positions, f));
+    }
+    node.cone = [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle];
+}
+
 /// The state of a build: the working mesh, per-slot merge data, and the tree so far.
 struct Builder<'m> {
     mesh: &'m Mesh,
@@ -257,6 +289,18 @@ impl Builder<'_> {
 
     /// `vunify(a, b)` at the priced position, recorded as a new node. Returns the surviving slot.
     fn merge(&mut self, a: u32, b: u32, cand: &Candidate) -> u32 {
+        let (survivor, blend) = self.merge_topology(a, b, cand);
+        let u = self.nodes.len() - 1;
+        let (done, new) = self.nodes.split_at_mut(u);
+        finish_node(&mut new[0], done, blend, &self.collapser, survivor);
+        survivor
+    }
+
+    /// The sequential half of a merge: the working mesh, the tree links, position and error, the
+    /// vanishing triangles. Colour, normal, sphere and cone are left to [`finish_node`], which depends
+    /// only on finished nodes and so can run in parallel for a whole pass. Returns the surviving slot
+    /// and the children's shares of the attribute blend.
+    fn merge_topology(&mut self, a: u32, b: u32, cand: &Candidate) -> (u32, [f32; 2]) {
         // Keep the slot with more triangles: fewer to rewrite.
         let (a, b) = if self.collapser.face_count(b) > self.collapser.face_count(a) {
             (b, a)
@@ -270,42 +314,27 @@ impl Builder<'_> {
         let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
         self.nodes[s].parent = u;
         self.nodes[t].parent = u;
-        let (ns, nt) = (self.nodes[s], self.nodes[t]);
         let q = self.quadrics[bi];
         self.quadrics[ai] += q;
         self.weights[ai] = merged_weight(self.weights[ai], self.weights[bi]);
         let (ms, mt) = (self.mass[ai], self.mass[bi]);
         self.mass[ai] = ms + mt;
-        let (fs, ft) = if ms + mt > 0.0 {
-            (ms / (ms + mt), mt / (ms + mt))
+        let blend = if ms + mt > 0.0 {
+            [ms / (ms + mt), mt / (ms + mt)]
         } else {
-            (0.5, 0.5)
+            [0.5, 0.5]
         };
-        let blend = |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * fs + Vec3::from_array(y) * ft;
-        let sphere = sphere_of(&ns)
-            .union(sphere_of(&nt))
-            .union_point(cand.position);
-        let c = &self.collapser;
-        let around = cone_of(
-            c.faces_of(a)
-                .map(|(_, f)| unit_normal(&c.positions, f))
-                .filter(|n| *n != Vec3::ZERO),
-        );
-        let cone = cone_of_node(&ns).union(cone_of_node(&nt)).union(around);
         self.nodes.push(Node {
             position: cand.position.to_array(),
-            error: (cand.error as f32).max(ns.error).max(nt.error),
-            color: blend(ns.color, nt.color).to_array(),
+            error: (cand.error as f32)
+                .max(self.nodes[s].error)
+                .max(self.nodes[t].error),
+            color: [0.0; 3],
             parent: NONE,
-            normal: blend(ns.normal, nt.normal).normalize_or_zero().to_array(),
+            normal: [0.0; 3],
             children: [s as u32, t as u32],
-            sphere: [
-                sphere.center.x,
-                sphere.center.y,
-                sphere.center.z,
-                sphere.radius,
-            ],
-            cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
+            sphere: [0.0; 4],
+            cone: [0.0; 4],
         });
         self.node_of[ai] = u;
         let mesh = self.mesh;
@@ -315,7 +344,7 @@ impl Builder<'_> {
                 .map(|&(f, _)| mesh.triangles[f as usize]),
         );
         self.vanish_offsets.push(self.triangles.len() as u32);
-        a
+        (a, blend)
     }
 
     /// No candidate is left but several isolated vertices are: pair each with its nearest others within
@@ -378,14 +407,17 @@ impl Builder<'_> {
         progress: &mut dyn FnMut(usize, usize),
     ) {
         let total = self.mesh.positions.len() - 1;
-        // `touched[s] == pass`: slot s merged (or died) in that pass, so its pairs' prices are stale.
-        let mut touched: Vec<u32> = vec![0; self.mesh.positions.len()];
+        let n = self.mesh.positions.len();
+        // `picked[s] == pass`: slot s is an end of a pair chosen in that pass (so no other pair may use
+        // it); `changed[s] == pass`: s merged (or died) in that pass, so its pairs' prices are stale.
+        let mut picked: Vec<u32> = vec![0; n];
+        let mut changed: Vec<u32> = vec![0; n];
         let mut allow_flips = false;
         let mut last_report = 0;
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
         let mut cands = self.priced_candidates();
-        let mut survivors: Vec<u32> = Vec::new();
-        let mut scratch: Vec<Neighbor> = Vec::new();
+        let mut chosen: Vec<(u32, u32, bool)> = Vec::new();
+        let mut finished: Vec<(u32, [f32; 2])> = Vec::new();
         while self.collapser.live_count() > 1 {
             if cands.is_empty() {
                 let pairs = self.widen(radius, per_vertex);
@@ -399,52 +431,78 @@ impl Builder<'_> {
             }
             self.stats.rounds += 1;
             let pass = self.stats.rounds as u32;
-            cands.par_sort_unstable_by_key(|e| (e.cost, e.a, e.b));
             let goal = ((self.collapser.live_count() as f64 * PASS_SHARE).ceil() as usize).max(1);
+            // Only the cheapest few goals' worth can be reached in a pass: partition, then sort just those.
+            let window = (goal * PASS_WINDOW).min(cands.len());
+            let order = |e: &Entry| ((e.cost as u64) << 32) | e.a as u64;
+            if window < cands.len() {
+                cands.select_nth_unstable_by_key(window, order);
+            }
+            cands[..window].par_sort_unstable_by_key(order);
             let bound = cands
                 .get(goal)
                 .map_or(f32::INFINITY, |e| f32::from_bits(e.cost) * PASS_COST_BOUND);
-            let mut merged = 0;
-            let mut deferred = 0;
-            survivors.clear();
-            for e in &cands {
-                if merged >= goal || (merged > goal / 6 && f32::from_bits(e.cost) > bound) {
+
+            // 1. Choose vertex-disjoint pairs, cheapest first.
+            chosen.clear();
+            for e in &cands[..window] {
+                if chosen.len() >= goal
+                    || (chosen.len() > goal / 6 && f32::from_bits(e.cost) > bound)
+                {
                     break;
                 }
                 let (a, b) = (e.a, e.b & SLOT);
-                if touched[a as usize] == pass || touched[b as usize] == pass {
+                if picked[a as usize] == pass || picked[b as usize] == pass {
                     continue;
                 }
-                let cand = self.price(a, b, e.b & NO_EDGE == 0);
-                if !allow_flips && self.collapser.flips(a, b, cand.position) {
-                    deferred += 1;
-                    continue;
-                }
-                let survivor = self.merge(a, b, &cand);
-                // Neither end moves again this pass: the costs priced for its other pairs still hold.
-                touched[a as usize] = pass;
-                touched[b as usize] = pass;
-                survivors.push(survivor);
-                merged += 1;
+                picked[a as usize] = pass;
+                picked[b as usize] = pass;
+                chosen.push((a, b, e.b & NO_EDGE == 0));
             }
-            self.stats.flip_deferrals += deferred;
+            // 2. Price and flip-test them in parallel, against the mesh as it was before the pass.
+            let this = &*self;
+            let priced: Vec<Option<Candidate>> = chosen
+                .par_iter()
+                .map(|&(a, b, edge)| {
+                    let cand = this.price(a, b, edge);
+                    (allow_flips || !this.collapser.flips(a, b, cand.position)).then_some(cand)
+                })
+                .collect();
+            // 3. Merge, in cost order.
+            let first_new = self.nodes.len();
+            finished.clear();
+            for (&(a, b, _), cand) in chosen.iter().zip(&priced) {
+                let Some(cand) = cand else { continue };
+                let (survivor, blend) = self.merge_topology(a, b, cand);
+                changed[a as usize] = pass;
+                changed[b as usize] = pass;
+                finished.push((survivor, blend));
+            }
+            let merged = finished.len();
+            self.stats.flip_deferrals += (chosen.len() - merged) as u32;
             // A pass in which every candidate would flip something makes no progress: allow flips once.
             allow_flips = merged == 0;
+            // 4. The new nodes' attributes, in parallel: their children all finished in earlier passes.
+            let (done, new) = self.nodes.split_at_mut(first_new);
+            let collapser = &self.collapser;
+            new.par_iter_mut()
+                .zip(finished.par_iter())
+                .for_each(|(node, &(slot, blend))| finish_node(node, done, blend, collapser, slot));
 
-            // Drop the stale pairs, price the survivors' pairs anew (each pair once).
+            // 5. Drop the stale pairs, price the survivors' pairs anew (each pair once).
             cands.retain(|e| {
-                touched[e.a as usize] != pass && touched[(e.b & SLOT) as usize] != pass
+                changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
             });
             let this = &*self;
-            let fresh: Vec<Entry> = survivors
+            let fresh: Vec<Entry> = finished
                 .par_iter()
                 .fold_with(
                     (Vec::new(), Vec::new()),
-                    |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &s| {
+                    |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &(s, _)| {
                         this.collapser.neighbors(s, &mut scratch);
                         for nb in &scratch {
                             // A pair of two survivors is priced by the smaller slot only.
-                            if touched[nb.slot as usize] == pass && nb.slot < s {
+                            if changed[nb.slot as usize] == pass && nb.slot < s {
                                 continue;
                             }
                             let cost = key(this.price(s, nb.slot, nb.edge).cost);
@@ -465,7 +523,6 @@ impl Builder<'_> {
                 });
             self.stats.pricings += fresh.len() as u64;
             cands.extend(fresh);
-            let _ = &mut scratch;
             let done = self.merges() as usize;
             if done - last_report >= PROGRESS_EVERY {
                 progress(done, total);
