@@ -126,15 +126,24 @@ fn main() {
                 .expect("build")
                 .0
         });
+        let greedy = BuildOptions {
+            schedule: vtree::Schedule::Greedy,
+            ..Default::default()
+        };
+        let (greedy_tree, greedy_s, _) = measured(|| {
+            vtree::build(&mesh, &greedy, &mut |_, _| {})
+                .expect("build")
+                .0
+        });
         let (_, mo_s, mo_peak) = measured(|| meshopt_simplify(&mesh, t / 100));
         println!(
-            "| {m} | {t} | {build_s:.3} | {mo_s:.3} | {:.2}× | {:.1} | {:.0} | {:.1} |",
+            "| {m} | {t} | {build_s:.3} | {greedy_s:.3} | {mo_s:.3} | {:.2}× | {:.1} | {:.0} | {:.1} |",
             build_s / mo_s,
             build_peak as f64 / 1048576.0,
             build_peak as f64 / t as f64,
             mo_peak as f64 / 1048576.0
         );
-        loaded.push((m.clone(), mesh, tree));
+        loaded.push((m.clone(), mesh, tree, greedy_tree));
     }
 
     if !flag("--skip-quality") {
@@ -142,18 +151,20 @@ fn main() {
             "\n## Quality: Hausdorff distance (% of bbox diagonal) of `extract` vs meshopt at the same triangle count\n"
         );
         println!(
-            "| model | level | triangles | vunify mean | meshopt mean | mean ratio | vunify max | meshopt max | max ratio |"
+            "| model | level | triangles | vunify mean | meshopt mean | mean ratio | vunify max | meshopt max | max ratio | greedy mean / max |"
         );
-        println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
-        for (m, mesh, tree) in &loaded {
+        println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for (m, mesh, tree, greedy_tree) in &loaded {
             for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
                 let target = (mesh.triangle_count() as f64 * ratio) as usize;
                 let mo = meshopt_simplify(mesh, target);
                 let cut = vtree::cut_at_triangles(tree, mo.triangle_count() as u32);
                 let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
                 let hm = vunify::measure::hausdorff(mesh, &mo, samples).symmetric;
+                let gcut = vtree::cut_at_triangles(greedy_tree, mo.triangle_count() as u32);
+                let hg = vunify::measure::hausdorff(mesh, &gcut.mesh, samples).symmetric;
                 println!(
-                    "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} |",
+                    "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} | {:.4} / {:.4} |",
                     cut.mesh.triangle_count(),
                     mo.triangle_count(),
                     100.0 * hv.mean,
@@ -161,7 +172,9 @@ fn main() {
                     hv.mean / hm.mean.max(1e-12),
                     100.0 * hv.max,
                     100.0 * hm.max,
-                    hv.max / hm.max.max(1e-12)
+                    hv.max / hm.max.max(1e-12),
+                    100.0 * hg.mean,
+                    100.0 * hg.max
                 );
             }
         }
@@ -173,7 +186,7 @@ fn main() {
         );
         println!("| model | level | qem | qem-midpoint | edge-length | hybrid |");
         println!("|---|---|---|---|---|---|");
-        for (m, mesh, _) in &loaded {
+        for (m, mesh, _, _) in &loaded {
             let metrics = [
                 Metric::Qem,
                 Metric::QemMidpoint,

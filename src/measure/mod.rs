@@ -18,6 +18,8 @@ pub struct OneSided {
     pub mean: f64,
     pub rms: f64,
     pub samples: usize,
+    /// Where the largest distance was found (a sample point on the `from` surface).
+    pub max_at: [f32; 3],
 }
 
 /// Both directions and their combination.
@@ -107,15 +109,18 @@ pub fn sample_surface(mesh: &Mesh, samples: usize) -> Vec<Vec3> {
 
 fn one_sided(from: &Mesh, to: &Bvh, samples: usize, unit: f64) -> (OneSided, f64, f64) {
     let points = sample_surface(from, samples);
-    let (max, sum, sum2) = points
+    let (max, max_at, sum, sum2) = points
         .par_iter()
         .map(|&q| {
             let d = to.distance(q) as f64;
-            (d, d, d * d)
+            (d, q, d, d * d)
         })
         .reduce(
-            || (0.0, 0.0, 0.0),
-            |x, y| (x.0.max(y.0), x.1 + y.1, x.2 + y.2),
+            || (0.0, Vec3::ZERO, 0.0, 0.0),
+            |x, y| {
+                let (max, at) = if y.0 > x.0 { (y.0, y.1) } else { (x.0, x.1) };
+                (max, at, x.2 + y.2, x.3 + y.3)
+            },
         );
     let n = points.len().max(1) as f64;
     let side = OneSided {
@@ -123,6 +128,7 @@ fn one_sided(from: &Mesh, to: &Bvh, samples: usize, unit: f64) -> (OneSided, f64
         mean: sum / n / unit,
         rms: (sum2 / n).sqrt() / unit,
         samples: points.len(),
+        max_at: max_at.to_array(),
     };
     (side, sum, sum2)
 }
@@ -143,6 +149,7 @@ pub fn hausdorff(original: &Mesh, simplified: &Mesh, samples: usize) -> Hausdorf
         mean: (fs + bs) / n / unit,
         rms: ((fs2 + bs2) / n).sqrt() / unit,
         samples: f.samples + b.samples,
+        max_at: if f.max >= b.max { f.max_at } else { b.max_at },
     };
     Hausdorff {
         forward: f,

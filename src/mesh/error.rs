@@ -49,3 +49,14 @@ impl fmt::Display for InputError {
         }
     }
 }
+
+/// The bytes as UTF-8 text, or an error naming the line of the first invalid byte.
+pub fn utf8_text<'a>(bytes: &'a [u8], path: &Path, what: &str) -> Result<&'a str, InputError> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        InputError::line(path, line, format!("not valid UTF-8 text: {what}"))
+    })
+}

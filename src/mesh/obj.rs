@@ -89,17 +89,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
 
 /// Checks every `v`, `vn`, `vt` and `f` record; returns the first problem with its line number.
 fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
-        InputError::line(
-            path,
-            line,
-            "not valid UTF-8 text: is this really an OBJ file?",
-        )
-    })?;
+    let text = super::error::utf8_text(bytes, path, "is this really an OBJ file?")?;
     let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
     // Positive indices may refer forward; they are checked against the final counts at the end.
     let mut max_ref: [(usize, usize); 3] = [(0, 0); 3];

@@ -24,17 +24,7 @@ impl<'a> Lines<'a> {
 }
 
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
-        InputError::line(
-            path,
-            line,
-            "not valid UTF-8 text (binary OFF is not supported)",
-        )
-    })?;
+    let text = super::error::utf8_text(bytes, path, "binary OFF is not supported")?;
     let mut lines = Lines {
         inner: text.lines().enumerate(),
     };

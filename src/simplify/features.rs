@@ -16,6 +16,10 @@ pub const CORNER_WEIGHT: f32 = 2.0;
 /// Constraint-plane weight relative to the squared edge length. Strong enough that a boundary vertex
 /// slides along its boundary but not off it; not so strong that a noisy boundary can never move.
 pub const BOUNDARY_WEIGHT: f64 = 10.0;
+/// The same for sharp edges between two triangles. Lighter: the two face planes already meet along the
+/// crease and hold it, and a strong pull on top stiffens thin parts (at 10, cessna's mean error is 1.5×
+/// meshoptimizer's at 10 % of its triangles; at 0.3 creases drift and its max error reaches 5×).
+pub const SHARP_WEIGHT: f64 = 3.0;
 
 /// Everything the builder needs to know about the input's edges.
 pub struct Features {
@@ -97,11 +101,16 @@ pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: 
             feature_count[u as usize] += 1;
             feature_count[v as usize] += 1;
             let e = pv - pu;
+            let w = if group.len() == 2 {
+                SHARP_WEIGHT
+            } else {
+                BOUNDARY_WEIGHT
+            };
             for &(_, _, f, _) in group {
                 let fnorm = face_normal(positions, triangles[f as usize]);
                 let m = e.cross(fnorm).normalize_or_zero();
                 if m != DVec3::ZERO {
-                    let q = Quadric::from_plane(m, pu, BOUNDARY_WEIGHT * e.length_squared());
+                    let q = Quadric::constraint(m, pu, w * e.length_squared());
                     quadrics[u as usize] += q;
                     quadrics[v as usize] += q;
                 }

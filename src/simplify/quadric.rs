@@ -43,6 +43,15 @@ impl Quadric {
         }
     }
 
+    /// A constraint plane (Garland & Heckbert §6.2): it pulls like a plane of weight `w` but adds nothing
+    /// to [`Quadric::weight`], so it does not dilute the mean squared distance to the surface's own planes.
+    pub fn constraint(n: DVec3, point: DVec3, w: f64) -> Quadric {
+        Quadric {
+            weight: 0.0,
+            ..Quadric::from_plane(n, point, w)
+        }
+    }
+
     /// Area-weighted quadric of a triangle's plane; zero for a degenerate triangle.
     pub fn from_triangle(p0: Vec3, p1: Vec3, p2: Vec3) -> Quadric {
         let (p0, p1, p2) = (p0.as_dvec3(), p1.as_dvec3(), p2.as_dvec3());

@@ -372,14 +372,24 @@ impl Builder<'_> {
     /// Every candidate pair of the current mesh, once, priced in parallel.
     fn priced_candidates(&mut self) -> Vec<Entry> {
         let live: Vec<u32> = self.collapser.live_slots().collect();
+        self.price_around(&live, |a, other| other > a)
+    }
+
+    /// The pairs between each of `slots` and its neighbours for which `keep(slot, neighbour)` holds,
+    /// priced in parallel.
+    fn price_around(
+        &mut self,
+        slots: &[u32],
+        keep: impl Fn(u32, u32) -> bool + Sync,
+    ) -> Vec<Entry> {
         let this = &*self;
-        let out: Vec<Entry> = live
+        let out: Vec<Entry> = slots
             .par_iter()
             .fold_with(
                 (Vec::new(), Vec::new()),
                 |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &a| {
                     this.collapser.neighbors(a, &mut scratch);
-                    for nb in scratch.iter().filter(|nb| nb.slot > a) {
+                    for nb in scratch.iter().filter(|nb| keep(a, nb.slot)) {
                         let cost = key(this.price(a, nb.slot, nb.edge).cost);
                         out.push(Entry {
                             cost,
@@ -412,11 +422,10 @@ impl Builder<'_> {
         // it); `changed[s] == pass`: s merged (or died) in that pass, so its pairs' prices are stale.
         let mut picked: Vec<u32> = vec![0; n];
         let mut changed: Vec<u32> = vec![0; n];
-        let mut allow_flips = false;
         let mut last_report = 0;
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
         let mut cands = self.priced_candidates();
-        let mut chosen: Vec<(u32, u32, bool)> = Vec::new();
+        let mut chosen: Vec<usize> = Vec::new();
         let mut finished: Vec<(u32, [f32; 2])> = Vec::new();
         while self.collapser.live_count() > 1 {
             if cands.is_empty() {
@@ -445,7 +454,7 @@ impl Builder<'_> {
 
             // 1. Choose vertex-disjoint pairs, cheapest first.
             chosen.clear();
-            for e in &cands[..window] {
+            for (index, e) in cands[..window].iter().enumerate() {
                 if chosen.len() >= goal
                     || (chosen.len() > goal / 6 && f32::from_bits(e.cost) > bound)
                 {
@@ -457,31 +466,46 @@ impl Builder<'_> {
                 }
                 picked[a as usize] = pass;
                 picked[b as usize] = pass;
-                chosen.push((a, b, e.b & NO_EDGE == 0));
+                chosen.push(index);
             }
             // 2. Price and flip-test them in parallel, against the mesh as it was before the pass.
             let this = &*self;
-            let priced: Vec<Option<Candidate>> = chosen
+            let priced: Vec<(Candidate, bool)> = chosen
                 .par_iter()
-                .map(|&(a, b, edge)| {
-                    let cand = this.price(a, b, edge);
-                    (allow_flips || !this.collapser.flips(a, b, cand.position)).then_some(cand)
+                .map(|&index| {
+                    let e = cands[index];
+                    let (a, b) = (e.a, e.b & SLOT);
+                    let cand = this.price(a, b, e.b & NO_EDGE == 0);
+                    (
+                        cand,
+                        e.b & PENALIZED == 0 && this.collapser.flips(a, b, cand.position),
+                    )
                 })
                 .collect();
-            // 3. Merge, in cost order.
+            // 3. Merge, in cost order. A merge that would flip a triangle goes back to the list at a
+            // penalty, as in the greedy schedule; left in place at its low cost, it would crowd the
+            // front of every later pass.
             let first_new = self.nodes.len();
             finished.clear();
-            for (&(a, b, _), cand) in chosen.iter().zip(&priced) {
-                let Some(cand) = cand else { continue };
-                let (survivor, blend) = self.merge_topology(a, b, cand);
+            for (&index, &(cand, flips)) in chosen.iter().zip(&priced) {
+                let e = &mut cands[index];
+                let (a, b) = (e.a, e.b & SLOT);
+                // The parallel test saw the mesh before this pass; merges since may have moved a
+                // neighbour, so test again against the positions so far (as meshoptimizer does).
+                if flips || (e.b & PENALIZED == 0 && self.collapser.flips(a, b, cand.position)) {
+                    let c = &self.collapser;
+                    let gap2 =
+                        c.positions[a as usize].distance_squared(c.positions[b as usize]) as f64;
+                    e.cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
+                    e.b |= PENALIZED;
+                    self.stats.flip_deferrals += 1;
+                    continue;
+                }
+                let (survivor, blend) = self.merge_topology(a, b, &cand);
                 changed[a as usize] = pass;
                 changed[b as usize] = pass;
                 finished.push((survivor, blend));
             }
-            let merged = finished.len();
-            self.stats.flip_deferrals += (chosen.len() - merged) as u32;
-            // A pass in which every candidate would flip something makes no progress: allow flips once.
-            allow_flips = merged == 0;
             // 4. The new nodes' attributes, in parallel: their children all finished in earlier passes.
             let (done, new) = self.nodes.split_at_mut(first_new);
             let collapser = &self.collapser;
@@ -493,35 +517,11 @@ impl Builder<'_> {
             cands.retain(|e| {
                 changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
             });
-            let this = &*self;
-            let fresh: Vec<Entry> = finished
-                .par_iter()
-                .fold_with(
-                    (Vec::new(), Vec::new()),
-                    |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &(s, _)| {
-                        this.collapser.neighbors(s, &mut scratch);
-                        for nb in &scratch {
-                            // A pair of two survivors is priced by the smaller slot only.
-                            if changed[nb.slot as usize] == pass && nb.slot < s {
-                                continue;
-                            }
-                            let cost = key(this.price(s, nb.slot, nb.edge).cost);
-                            out.push(Entry {
-                                cost,
-                                a: s,
-                                b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
-                                created: 0,
-                            });
-                        }
-                        (out, scratch)
-                    },
-                )
-                .map(|(out, _)| out)
-                .reduce(Vec::new, |mut x, mut y| {
-                    x.append(&mut y);
-                    x
-                });
-            self.stats.pricings += fresh.len() as u64;
+            let survivors: Vec<u32> = finished.iter().map(|&(s, _)| s).collect();
+            // A pair of two survivors is priced by the smaller slot only.
+            let fresh = self.price_around(&survivors, |s, other| {
+                !(changed[other as usize] == pass && other < s)
+            });
             cands.extend(fresh);
             let done = self.merges() as usize;
             if done - last_report >= PROGRESS_EVERY {
