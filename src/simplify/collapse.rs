@@ -31,7 +31,8 @@ pub struct Collapser {
     /// Triangles around each live slot; may hold vanished ones until the slot is next touched.
     faces: Vec<Vec<u32>>,
     /// Other partners of each slot: proximity pairs and loose edges, possibly naming merged slots.
-    extras: Vec<Vec<u32>>,
+    /// Boxed, because most slots have none: an empty `Vec` would cost 24 bytes a slot, `None` costs 8.
+    extras: Vec<Option<Box<Vec<u32>>>>,
     /// `VI`: the slot a merged slot went into, or `ALIVE`.
     merged_into: Vec<u32>,
     live: usize,
@@ -69,7 +70,7 @@ impl Collapser {
             corners: triangles.to_vec(),
             alive_face: vec![true; triangles.len()],
             faces,
-            extras: vec![Vec::new(); n],
+            extras: vec![None; n],
             merged_into: vec![ALIVE; n],
             live: n,
             keys: Vec::new(),
@@ -103,10 +104,14 @@ impl Collapser {
         root
     }
 
+    fn extras_mut(&mut self, v: u32) -> &mut Vec<u32> {
+        self.extras[v as usize].get_or_insert_with(Default::default)
+    }
+
     /// Records a proximity pair (no edge between them) as a merge candidate.
     pub fn add_proximity_pair(&mut self, a: u32, b: u32) {
-        self.extras[a as usize].push(b);
-        self.extras[b as usize].push(a);
+        self.extras_mut(a).push(b);
+        self.extras_mut(b).push(a);
     }
 
     /// The live triangles around a live slot, as current slot corners.
@@ -145,8 +150,10 @@ impl Collapser {
                 }
             }
         }
-        for i in 0..self.extras[slot as usize].len() {
-            let e = self.extras[slot as usize][i];
+        for &e in self.extras[slot as usize]
+            .as_deref()
+            .map_or(&[][..], |v| &v[..])
+        {
             let v = self.root(e & SLOT_MASK);
             if v != slot {
                 out.push(Neighbor {
@@ -186,8 +193,8 @@ impl Collapser {
                     .copied()
                     .find(|&v| v != a && v != b)
                     .expect("a triangle has 3 distinct corners");
-                self.extras[ai].push(other | LOOSE_EDGE);
-                self.extras[other as usize].push(a | LOOSE_EDGE);
+                self.extras_mut(a).push(other | LOOSE_EDGE);
+                self.extras_mut(other).push(a | LOOSE_EDGE);
                 continue;
             }
             for v in c.iter_mut() {
@@ -218,19 +225,25 @@ impl Collapser {
         around_a.retain(|&f| self.alive_face[f as usize]);
         self.faces[ai] = around_a;
 
-        let moved = std::mem::take(&mut self.extras[bi]);
-        self.extras[ai].extend(moved);
+        let moved = self.extras[bi].take();
+        if let Some(moved) = moved {
+            self.extras_mut(a).extend(moved.iter().copied());
+        }
         self.merged_into[bi] = a;
         self.live -= 1;
         // Canonical extras: live slots, no self, one entry per partner (edge wins).
-        let mut extras = std::mem::take(&mut self.extras[ai]);
-        for e in &mut extras {
+        let Some(mut extras) = self.extras[ai].take() else {
+            return;
+        };
+        for e in extras.iter_mut() {
             *e = self.find(*e & SLOT_MASK) | (*e & LOOSE_EDGE);
         }
         extras.retain(|&e| e & SLOT_MASK != a);
         extras.sort_unstable_by_key(|&e| (e & SLOT_MASK, e & LOOSE_EDGE == 0));
         extras.dedup_by_key(|e| *e & SLOT_MASK);
-        self.extras[ai] = extras;
+        if !extras.is_empty() {
+            self.extras[ai] = Some(extras);
+        }
     }
 
     /// Would moving slots `a` and `b` to `p` turn any surviving triangle around them upside down?

@@ -125,6 +125,9 @@ const PASS_COST_BOUND: f32 = 1.5;
 /// three or four of them, and the cost bound stops most passes well before the window ends.
 const PASS_WINDOW: usize = 4;
 
+/// Slots priced per parallel batch (see [`Builder::price_around`]).
+const PRICE_CHUNK: usize = 1 << 14;
+
 /// How many merges between progress callbacks.
 const PROGRESS_EVERY: usize = 4096;
 
@@ -376,21 +379,31 @@ impl Builder<'_> {
     }
 
     /// The pairs between each of `slots` and its neighbours for which `keep(slot, neighbour)` holds,
-    /// priced in parallel.
+    /// priced in parallel. In chunks, so that rayon's per-thread vectors and their concatenation never
+    /// hold the whole list twice (the first call prices every pair of the mesh).
     fn price_around(
         &mut self,
         slots: &[u32],
         keep: impl Fn(u32, u32) -> bool + Sync,
     ) -> Vec<Entry> {
-        let this = &*self;
-        let out: Vec<Entry> = slots
+        let mut out = Vec::new();
+        for chunk in slots.chunks(PRICE_CHUNK) {
+            let part = self.price_chunk(chunk, &keep);
+            out.extend_from_slice(&part);
+        }
+        self.stats.pricings += out.len() as u64;
+        out
+    }
+
+    fn price_chunk(&self, slots: &[u32], keep: &(impl Fn(u32, u32) -> bool + Sync)) -> Vec<Entry> {
+        slots
             .par_iter()
             .fold_with(
                 (Vec::new(), Vec::new()),
                 |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &a| {
-                    this.collapser.neighbors(a, &mut scratch);
+                    self.collapser.neighbors(a, &mut scratch);
                     for nb in scratch.iter().filter(|nb| keep(a, nb.slot)) {
-                        let cost = key(this.price(a, nb.slot, nb.edge).cost);
+                        let cost = key(self.price(a, nb.slot, nb.edge).cost);
                         out.push(Entry {
                             cost,
                             a,
@@ -405,9 +418,7 @@ impl Builder<'_> {
             .reduce(Vec::new, |mut x, mut y| {
                 x.append(&mut y);
                 x
-            });
-        self.stats.pricings += out.len() as u64;
-        out
+            })
     }
 
     fn run_passes(
@@ -621,6 +632,41 @@ pub fn build(
 
     // 1. Features and quadrics.
     let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+    // 2. Close non-edge pairs (edges come from the working mesh itself). Found before the working mesh
+    // and the nodes exist: the grid is the largest temporary of the build, and this keeps it off the peak.
+    let mut stats = BuildStats {
+        leaves: n as u32,
+        input_triangles: mesh.triangles.len() as u32,
+        parts: mesh.parts.len() as u32,
+        feature_edges: feats.is_feature.iter().filter(|&&f| f).count() as u32,
+        ..Default::default()
+    };
+    let close = if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
+        let adjacency = Adjacency::new(n, &feats.edges);
+        let points: Vec<(u32, Vec3)> = mesh
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (i as u32, *p))
+            .collect();
+        close_pairs(
+            &points,
+            options.pair_distance * diagonal,
+            options.max_pairs_per_vertex,
+            |i, j| !adjacency.within_two_rings(i, j),
+        )
+    } else {
+        Vec::new()
+    };
+    stats.proximity_pairs = close.len() as u32;
+    // The edge list was only needed for the 2-ring test; free it before the tree grows.
+    let features::Features {
+        quadrics,
+        vertex_weight,
+        mean_edge_length,
+        ..
+    } = feats;
+
     let mut collapser = Collapser::new(mesh.positions.clone(), &mesh.triangles);
 
     // Leaves: sphere over the 1-ring (so it covers the triangles around the leaf), cone of those faces.
@@ -678,40 +724,17 @@ pub fn build(
         mass.push(area);
     }
 
-    // 2. Close non-edge pairs (edges come from the working mesh itself).
-    let mut stats = BuildStats {
-        leaves: n as u32,
-        input_triangles: mesh.triangles.len() as u32,
-        parts: mesh.parts.len() as u32,
-        feature_edges: feats.is_feature.iter().filter(|&&f| f).count() as u32,
-        ..Default::default()
-    };
-    if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
-        let adjacency = Adjacency::new(n, &feats.edges);
-        let points: Vec<(u32, Vec3)> = mesh
-            .positions
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (i as u32, *p))
-            .collect();
-        let pairs = close_pairs(
-            &points,
-            options.pair_distance * diagonal,
-            options.max_pairs_per_vertex,
-            |i, j| !adjacency.within_two_rings(i, j),
-        );
-        stats.proximity_pairs = pairs.len() as u32;
-        for &(a, b) in &pairs {
-            collapser.add_proximity_pair(a, b);
-        }
+    for &(a, b) in &close {
+        collapser.add_proximity_pair(a, b);
     }
+    drop(close);
 
     // 3-5. Merge until one vertex is left.
     let mut builder = Builder {
         mesh,
         collapser,
-        quadrics: feats.quadrics,
-        weights: feats.vertex_weight,
+        quadrics,
+        weights: vertex_weight,
         mass,
         node_of: (0..n as u32).collect(),
         nodes,
@@ -723,7 +746,7 @@ pub fn build(
         },
         metric: options.metric,
         hybrid: options.hybrid,
-        mean_edge_length: feats.mean_edge_length,
+        mean_edge_length,
         stats,
         removed: Vec::new(),
     };
