@@ -116,10 +116,19 @@ impl Collapser {
 
     /// The live triangles around a live slot, as current slot corners.
     pub fn faces_of(&self, slot: u32) -> impl Iterator<Item = (u32, [u32; 3])> + Clone + '_ {
-        self.faces[slot as usize]
-            .iter()
-            .filter(|&&f| self.alive_face[f as usize])
-            .map(|&f| (f, self.corners[f as usize]))
+        // Lists are exact: `unify` unlinks a vanished triangle from all its corners at once.
+        self.faces[slot as usize].iter().map(|&f| {
+            debug_assert!(self.alive_face[f as usize]);
+            (f, self.corners[f as usize])
+        })
+    }
+
+    /// Removes triangle `f` from the list of slot `v` (keeping the order of the rest).
+    fn unlink(&mut self, v: u32, f: u32) {
+        let list = &mut self.faces[v as usize];
+        if let Some(i) = list.iter().position(|&x| x == f) {
+            list.remove(i);
+        }
     }
 
     /// `g(v)` without path compression, for readers that share the collapser across threads.
@@ -175,13 +184,9 @@ impl Collapser {
         let (ai, bi) = (a as usize, b as usize);
         self.positions[ai] = position;
         let mut around_a = std::mem::take(&mut self.faces[ai]);
-        around_a.retain(|&f| self.alive_face[f as usize]);
         let around_b = std::mem::take(&mut self.faces[bi]);
         for f in around_b {
             let fi = f as usize;
-            if !self.alive_face[fi] {
-                continue;
-            }
             let c = &mut self.corners[fi];
             if c.contains(&a) {
                 // Degenerate (Fig. 3a). Its third corner keeps an edge to the merged vertex, which must
@@ -195,6 +200,7 @@ impl Collapser {
                     .expect("a triangle has 3 distinct corners");
                 self.extras_mut(a).push(other | LOOSE_EDGE);
                 self.extras_mut(other).push(a | LOOSE_EDGE);
+                self.unlink(other, f);
                 continue;
             }
             for v in c.iter_mut() {
@@ -219,6 +225,11 @@ impl Collapser {
                 let f = around_a[w[1].1 as usize];
                 self.alive_face[f as usize] = false;
                 removed.push((f, Vanish::Coincident));
+                for v in self.corners[f as usize] {
+                    if v != a {
+                        self.unlink(v, f);
+                    }
+                }
             }
         }
         self.keys = keys;
