@@ -80,6 +80,7 @@ fn meshopt_simplify(mesh: &Mesh, target_triangles: usize) -> Mesh {
         normals: None,
         triangles,
         parts,
+        unreferenced_vertices: 0,
     }
 }
 

@@ -290,3 +290,11 @@ fn load_names_unknown_formats_and_missing_files() {
     let e = vunify::mesh::load(&p, &CleanOptions::default()).unwrap_err();
     assert!(e.message.contains("degenerate"), "{e}");
 }
+
+/// tobj leaves unreferenced vertices out before vunify sees them; they are still counted as unused.
+#[test]
+fn unused_vertices_are_counted_even_when_the_reader_skips_them() {
+    let raw = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n").unwrap();
+    let (mesh, report) = clean(raw, &CleanOptions::default());
+    assert_eq!((mesh.vertex_count(), report.unused_vertices), (3, 1));
+}

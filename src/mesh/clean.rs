@@ -34,7 +34,10 @@ pub struct CleanReport {
 /// Welds, drops degenerate and duplicate faces, then drops unused vertices. Parts keep their order; a
 /// part left with no faces is removed. Attributes of welded vertices come from the first one.
 pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
-    let mut report = CleanReport::default();
+    let mut report = CleanReport {
+        unused_vertices: mesh.unreferenced_vertices,
+        ..CleanReport::default()
+    };
     let n = mesh.positions.len();
 
     // 1. Weld: remap[v] = the first vertex with v's position.
@@ -111,6 +114,7 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
         normals: mesh.normals.as_ref().map(pick),
         triangles,
         parts,
+        unreferenced_vertices: 0,
     };
     debug_assert!(out.check().is_ok());
     (out, report)

@@ -34,6 +34,9 @@ pub struct Mesh {
     pub normals: Option<Vec<Vec3>>,
     pub triangles: Vec<[u32; 3]>,
     pub parts: Vec<Part>,
+    /// Vertices of the file that no face uses and that the reader left out before `positions` (tobj
+    /// keeps only referenced vertices); [`clean`] counts them with the unused ones it drops itself.
+    pub unreferenced_vertices: usize,
 }
 
 impl Mesh {
@@ -77,6 +80,7 @@ impl Mesh {
             normals: None,
             triangles,
             parts,
+            unreferenced_vertices: 0,
         }
     }
 

@@ -10,7 +10,7 @@ use glam::Vec3;
 use std::path::Path;
 
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
-    validate(bytes, path)?;
+    let declared = validate(bytes, path)?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
@@ -84,11 +84,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     }
     mesh.colors = has_colors.then_some(colors);
     mesh.normals = has_normals.then_some(normals);
+    // tobj keeps only the vertices faces use (each object keeps its own); what is left out was unused.
+    mesh.unreferenced_vertices = declared.saturating_sub(mesh.positions.len());
     Ok(mesh)
 }
 
 /// Checks every `v`, `vn`, `vt` and `f` record; returns the first problem with its line number.
-fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
+/// Returns the number of `v` records.
+fn validate(bytes: &[u8], path: &Path) -> Result<usize, InputError> {
     let text = super::error::utf8_text(bytes, path, "is this really an OBJ file?")?;
     let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
     // Positive indices may refer forward; they are checked against the final counts at the end.
@@ -222,5 +225,5 @@ fn validate(bytes: &[u8], path: &Path) -> Result<(), InputError> {
             ));
         }
     }
-    Ok(())
+    Ok(nv)
 }

@@ -172,5 +172,6 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         normals: None,
         triangles,
         parts,
+        unreferenced_vertices: 0,
     })
 }

@@ -247,5 +247,6 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         normals: has_normals.then_some(normals),
         triangles,
         parts,
+        unreferenced_vertices: 0,
     })
 }

@@ -79,6 +79,7 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
             triangles: 0..triangles.len() as u32,
         }],
         triangles,
+        unreferenced_vertices: 0,
     };
     Cut {
         nodes,
