@@ -126,8 +126,7 @@ impl Pricing<'_> {
                 );
                 // A more featured end keeps its place (Table 1: a corner stays a corner, a crease vertex
                 // stays on its crease): the optimum of a quadric near a feature slides along it, and
-                // on CAD parts that rounds corners off (fandisk: 1.9× meshoptimizer's max error
-                // without this, 0.6× with it).
+                // on CAD parts that rounds corners off (this halves fandisk's max error at 10 %).
                 let best = if wa != wb {
                     if wa > wb { da } else { db }
                 } else {
