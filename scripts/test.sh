@@ -27,6 +27,11 @@ else
   echo "scripts/test.sh: VUNIFY_MODELS is not set; the tests on real models will say so and pass"
 fi
 
-cargo test --lib --bins --tests --locked
 cargo check --benches --locked   # benchmarks must keep compiling; they run with `cargo bench`
-cargo test --doc --locked
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+cargo test --doc --locked 2>&1 | tee "$log"
+cargo test --lib --bins --tests --locked 2>&1 | tee -a "$log"
+# One closing line over every test binary above.
+awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($i ~ /^passed/) p += $(i-1); if ($i ~ /^failed/) f += $(i-1) } }
+     END { printf "%d passed, %d failed\n", p, f }' "$log"
