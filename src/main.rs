@@ -277,7 +277,7 @@ fn build(args: BuildArgs) -> Result<()> {
     );
     if let Some(p) = peak {
         println!(
-            "memory     peak {:.1} MiB ({:.0} bytes per input triangle)",
+            "memory     process peak {:.1} MiB, input included ({:.0} bytes per input triangle)",
             p as f64 / 1048576.0,
             p as f64 / mesh.triangle_count() as f64
         );
