@@ -669,17 +669,29 @@ pub fn build(
 
     let mut collapser = Collapser::new(mesh.positions.clone(), &mesh.triangles);
 
-    // Leaves: sphere over the 1-ring (so it covers the triangles around the leaf), cone of those faces.
-    let leaf_data: Vec<(Sphere, NormalCone, f32, Vec3)> = (0..n as u32)
+    // Leaves: sphere over the 1-ring (so it covers the triangles around the leaf), cone of those faces,
+    // a third of their area as the leaf's mass. Each face's normal is computed once, not once a corner.
+    let faces: Vec<(Vec3, f32)> = mesh
+        .triangles
+        .par_iter()
+        .map(|t| {
+            let [a, b, d] = t.map(|w| mesh.positions[w as usize]);
+            let cross = (b - a).cross(d - a);
+            let len = cross.length();
+            (if len > 0.0 { cross / len } else { Vec3::ZERO }, len / 6.0)
+        })
+        .collect();
+    let mut nodes: Vec<Node> = Vec::with_capacity(2 * n - 1);
+    let mut mass: Vec<f32> = Vec::with_capacity(n);
+    (0..n as u32)
         .into_par_iter()
         .map(|v| {
             let p = mesh.positions[v as usize];
             let (mut radius, mut area, mut nsum) = (0.0f32, 0.0f32, Vec3::ZERO);
-            for (_, c) in collapser.faces_of(v) {
-                let [a, b, d] = c.map(|w| mesh.positions[w as usize]);
-                let cross = (b - a).cross(d - a);
-                area += cross.length() / 6.0; // a third of the triangle's area
-                nsum += cross;
+            for (f, c) in collapser.faces_of(v) {
+                let (unit, third) = faces[f as usize];
+                area += third;
+                nsum += unit * third;
                 for w in c {
                     radius = radius.max(p.distance(mesh.positions[w as usize]));
                 }
@@ -687,42 +699,30 @@ pub fn build(
             let cone = cone_of(
                 collapser
                     .faces_of(v)
-                    .map(|(_, c)| unit_normal(&mesh.positions, c))
+                    .map(|(f, _)| faces[f as usize].0)
                     .filter(|n| *n != Vec3::ZERO),
             );
-            (
-                Sphere { center: p, radius },
-                cone,
-                area,
-                nsum.normalize_or_zero(),
-            )
+            let normal = mesh
+                .normals
+                .as_ref()
+                .map_or(nsum.normalize_or_zero(), |ns| {
+                    ns[v as usize].normalize_or_zero()
+                });
+            let color = mesh.colors.as_ref().map_or(Vec3::ONE, |cs| cs[v as usize]);
+            let node = Node {
+                position: p.to_array(),
+                error: 0.0,
+                color: color.to_array(),
+                parent: NONE,
+                normal: normal.to_array(),
+                children: [NONE, NONE],
+                sphere: [p.x, p.y, p.z, radius],
+                cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
+            };
+            (node, area)
         })
-        .collect();
-    let mut nodes: Vec<Node> = Vec::with_capacity(2 * n - 1);
-    let mut mass: Vec<f32> = Vec::with_capacity(n);
-    for (v, (sphere, cone, area, face_normal)) in leaf_data.into_iter().enumerate() {
-        let normal = mesh
-            .normals
-            .as_ref()
-            .map_or(face_normal, |ns| ns[v].normalize_or_zero());
-        let color = mesh.colors.as_ref().map_or(Vec3::ONE, |cs| cs[v]);
-        nodes.push(Node {
-            position: mesh.positions[v].to_array(),
-            error: 0.0,
-            color: color.to_array(),
-            parent: NONE,
-            normal: normal.to_array(),
-            children: [NONE, NONE],
-            sphere: [
-                sphere.center.x,
-                sphere.center.y,
-                sphere.center.z,
-                sphere.radius,
-            ],
-            cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
-        });
-        mass.push(area);
-    }
+        .unzip_into_vecs(&mut nodes, &mut mass);
+    drop(faces);
 
     for &(a, b) in &close {
         collapser.add_proximity_pair(a, b);
