@@ -347,7 +347,7 @@ fn extract(args: ExtractArgs) -> Result<()> {
             vtree::cut_at_triangles(&tree, (r * total as f64).round() as u32)
         }
         (_, _, Some(e)) => {
-            if !(e >= 0.0) {
+            if e.is_nan() || e < 0.0 {
                 bail!("--error must be a non-negative fraction of the diagonal, got {e}");
             }
             vtree::cut_at_error(&tree, e * tree.diagonal())

@@ -87,15 +87,15 @@ impl Mesh {
     /// Checks the structural invariants every loader and [`clean`] guarantee.
     pub fn check(&self) -> Result<(), String> {
         let n = self.positions.len();
-        if let Some(c) = &self.colors {
-            if c.len() != n {
-                return Err(format!("{} colours for {n} positions", c.len()));
-            }
+        if let Some(c) = &self.colors
+            && c.len() != n
+        {
+            return Err(format!("{} colours for {n} positions", c.len()));
         }
-        if let Some(c) = &self.normals {
-            if c.len() != n {
-                return Err(format!("{} normals for {n} positions", c.len()));
-            }
+        if let Some(c) = &self.normals
+            && c.len() != n
+        {
+            return Err(format!("{} normals for {n} positions", c.len()));
         }
         for (i, p) in self.positions.iter().enumerate() {
             if !p.is_finite() {

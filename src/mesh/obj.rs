@@ -16,7 +16,6 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     // Materials are irrelevant to geometry, and a missing .mtl (beetle.obj names one) is not an error.
     let loaded = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &options, |_| {
@@ -56,10 +55,11 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             if m.normal_indices.len() == m.indices.len() {
                 for (&vi, &ni) in m.indices.iter().zip(&m.normal_indices) {
                     let n = m.normals.get(3 * ni as usize..3 * ni as usize + 3);
-                    if let (Some(n), Some(slot)) = (n, normals.get_mut(first + vi as usize)) {
-                        if *slot == Vec3::ZERO {
-                            *slot = Vec3::new(n[0], n[1], n[2]);
-                        }
+                    // The first normal a vertex is used with wins.
+                    if let (Some(n), Some(slot)) = (n, normals.get_mut(first + vi as usize))
+                        && *slot == Vec3::ZERO
+                    {
+                        *slot = Vec3::new(n[0], n[1], n[2]);
                     }
                 }
             }

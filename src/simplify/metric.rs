@@ -100,6 +100,7 @@ pub struct Pricing<'a> {
 }
 
 impl Pricing<'_> {
+    #[allow(clippy::too_many_arguments)] // both ends' position, quadric and slot, and the edge flag
     pub fn price(
         &self,
         pa: Vec3,

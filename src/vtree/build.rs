@@ -592,7 +592,7 @@ impl Builder<'_> {
                         created: now,
                     });
                 }
-                if now as usize % PROGRESS_EVERY == 0 {
+                if (now as usize).is_multiple_of(PROGRESS_EVERY) {
                     progress(now as usize, total);
                 }
             }

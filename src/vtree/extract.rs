@@ -28,9 +28,8 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
     for u in (0..count as u32).rev() {
         let p = tree.nodes[u as usize].parent;
         let on_front = !(u >= n && split(u)) && (p == super::NONE || (p >= n && split(p)));
-        rep[u as usize] = if on_front {
-            u
-        } else if p == super::NONE {
+        // A split node's entry is never read: its children are on the front or below it.
+        rep[u as usize] = if on_front || p == super::NONE {
             u
         } else {
             rep[p as usize]
