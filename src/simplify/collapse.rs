@@ -39,6 +39,8 @@ pub struct Collapser {
     live: usize,
     /// Scratch for the coincidence test, kept to spare an allocation per merge.
     keys: Vec<([u32; 3], u32)>,
+    /// Scratch: third corners of the triangles a merge made degenerate.
+    loose: Vec<u32>,
 }
 
 /// A partner of a slot, and whether an edge joins them.
@@ -75,6 +77,7 @@ impl Collapser {
             merged_into: vec![ALIVE; n],
             live: n,
             keys: Vec::new(),
+            loose: Vec::new(),
         }
     }
 
@@ -191,7 +194,7 @@ impl Collapser {
             let c = &mut self.corners[fi];
             if c.contains(&a) {
                 // Degenerate (Fig. 3a). Its third corner keeps an edge to the merged vertex, which must
-                // stay a candidate even if no other triangle carries that edge.
+                // stay a candidate even if no other triangle carries that edge (checked below).
                 self.alive_face[fi] = false;
                 removed.push((f, Vanish::Degenerate));
                 let other = c
@@ -199,8 +202,7 @@ impl Collapser {
                     .copied()
                     .find(|&v| v != a && v != b)
                     .expect("a triangle has 3 distinct corners");
-                self.extras_mut(a).push(other | LOOSE_EDGE);
-                self.extras_mut(other).push(a | LOOSE_EDGE);
+                self.loose.push(other);
                 self.unlink(other, f);
                 continue;
             }
@@ -235,6 +237,20 @@ impl Collapser {
         }
         self.keys = keys;
         around_a.retain(|&f| self.alive_face[f as usize]);
+        // A loose edge only where no surviving triangle still carries the edge: almost always one does,
+        // and redundant entries would be re-sorted and re-searched at every later merge.
+        let mut loose = std::mem::take(&mut self.loose);
+        for &other in &loose {
+            if !around_a
+                .iter()
+                .any(|&f| self.corners[f as usize].contains(&other))
+            {
+                self.extras_mut(a).push(other | LOOSE_EDGE);
+                self.extras_mut(other).push(a | LOOSE_EDGE);
+            }
+        }
+        loose.clear();
+        self.loose = loose;
         self.faces[ai] = around_a;
 
         let moved = self.extras[bi].take();
