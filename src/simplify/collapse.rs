@@ -13,6 +13,12 @@ const LOOSE_EDGE: u32 = 1 << 31;
 const SLOT_MASK: u32 = !LOOSE_EDGE;
 const ALIVE: u32 = u32::MAX;
 
+/// A merge "flips" a triangle when it turns the triangle's normal by more than acos(0.2) ≈ 78°, not only
+/// past 90°: a near-fold leaves a sliver standing across the surface. With 0 (a strict flip test, as
+/// meshoptimizer's) cessna's mean error at 1 % of its triangles is 1.13–1.26× meshoptimizer's from run to
+/// run of tuning; with 0.2, 1.10×; with 0.5 too many merges wait and thin parts suffer (1.29×).
+const FOLD_COS: f32 = 0.2;
+
 /// Why a triangle vanished in a merge (seed 001 Fig. 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Vanish {
@@ -291,7 +297,7 @@ impl Collapser {
                     }
                 });
                 let after = (moved[1] - moved[0]).cross(moved[2] - moved[0]);
-                if before.dot(after) < 0.0 {
+                if before.dot(after) < FOLD_COS * before.length() * after.length() {
                     return true;
                 }
             }

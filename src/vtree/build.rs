@@ -479,31 +479,25 @@ impl Builder<'_> {
                 picked[b as usize] = pass;
                 chosen.push(index);
             }
-            // 2. Price and flip-test them in parallel, against the mesh as it was before the pass.
+            // 2. Price them in parallel (their quadrics and positions do not change within the pass).
             let this = &*self;
-            let priced: Vec<(Candidate, bool)> = chosen
+            let priced: Vec<Candidate> = chosen
                 .par_iter()
                 .map(|&index| {
                     let e = cands[index];
-                    let (a, b) = (e.a, e.b & SLOT);
-                    let cand = this.price(a, b, e.b & NO_EDGE == 0);
-                    (
-                        cand,
-                        e.b & PENALIZED == 0 && this.collapser.flips(a, b, cand.position),
-                    )
+                    this.price(e.a, e.b & SLOT, e.b & NO_EDGE == 0)
                 })
                 .collect();
-            // 3. Merge, in cost order. A merge that would flip a triangle goes back to the list at a
-            // penalty, as in the greedy schedule; left in place at its low cost, it would crowd the
-            // front of every later pass.
+            // 3. Merge, in cost order. The flip test must see the positions so far (earlier merges of
+            // this pass may have moved a neighbour), so it runs here, as in meshoptimizer. A merge that
+            // would flip a triangle goes back to the list at a penalty, as in the greedy schedule; left
+            // in place at its low cost, it would crowd the front of every later pass.
             let first_new = self.nodes.len();
             finished.clear();
-            for (&index, &(cand, flips)) in chosen.iter().zip(&priced) {
+            for (&index, &cand) in chosen.iter().zip(&priced) {
                 let e = &mut cands[index];
                 let (a, b) = (e.a, e.b & SLOT);
-                // The parallel test saw the mesh before this pass; merges since may have moved a
-                // neighbour, so test again against the positions so far (as meshoptimizer does).
-                if flips || (e.b & PENALIZED == 0 && self.collapser.flips(a, b, cand.position)) {
+                if e.b & PENALIZED == 0 && self.collapser.flips(a, b, cand.position) {
                     let c = &self.collapser;
                     let gap2 =
                         c.positions[a as usize].distance_squared(c.positions[b as usize]) as f64;
