@@ -1,7 +1,7 @@
 //! Object File Format (`OFF`, and `COFF` with per-vertex colours), parsed by hand: it is a dozen lines
 //! of grammar, and doing it here gives exact line numbers in errors.
 
-use super::{InputError, Mesh, Part};
+use super::{InputError, Mesh};
 use glam::Vec3;
 use std::path::Path;
 
@@ -162,16 +162,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             triangles.push([idx[0], idx[j], idx[j + 1]]);
         }
     }
-    let parts = vec![Part {
-        name: "mesh".into(),
-        triangles: 0..triangles.len() as u32,
-    }];
     Ok(Mesh {
-        positions,
         colors: colored.then_some(colors),
         normals: None,
-        triangles,
-        parts,
-        unreferenced_vertices: 0,
+        ..Mesh::from_triangles(positions, triangles)
     })
 }

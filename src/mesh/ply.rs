@@ -4,7 +4,7 @@
 //! so a truncated binary file is reported with the byte offset where its data runs out, and no count
 //! from the header is trusted for an allocation.
 
-use super::{InputError, Location, Mesh, Part};
+use super::{InputError, Location, Mesh};
 use glam::Vec3;
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property, PropertyType, ScalarType};
@@ -237,16 +237,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             triangles.push([idx[0] as u32, idx[j] as u32, idx[j + 1] as u32]);
         }
     }
-    let parts = vec![Part {
-        name: "mesh".into(),
-        triangles: 0..triangles.len() as u32,
-    }];
     Ok(Mesh {
-        positions,
         colors: has_colors.then_some(colors),
         normals: has_normals.then_some(normals),
-        triangles,
-        parts,
-        unreferenced_vertices: 0,
+        ..Mesh::from_triangles(positions, triangles)
     })
 }
