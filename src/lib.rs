@@ -8,5 +8,6 @@
 pub mod export;
 pub mod measure;
 pub mod mesh;
+pub mod refine;
 pub mod simplify;
 pub mod vtree;

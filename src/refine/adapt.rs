@@ -1,0 +1,353 @@
+//! The per-frame adaptation of the front (seed 001 §3.2, §4): visit active nodes, split where the view
+//! asks for more detail, unify where it asks for less, amortised over frames, with geomorphs.
+
+use super::criteria::{Camera, Tests, View};
+use super::front::Front;
+use super::hierarchy::{Hierarchy, NIL};
+use glam::Vec3;
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// What the front aims for.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Mode {
+    /// Every visible node's projected error at most τ pixels.
+    Tolerance,
+    /// The smallest τ that keeps at most this many triangles drawn.
+    Budget(u32),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Settings {
+    /// τ: the screen-space error tolerance in pixels (the start value in budget mode). Default 1.
+    pub tolerance_px: f32,
+    pub mode: Mode,
+    pub tests: Tests,
+    /// A split node unifies again only once its projected error drops below `τ·(1 − hysteresis)`,
+    /// so that a node near τ does not flip every frame. Default 0.1.
+    pub hysteresis: f32,
+    /// Amortisation: at most this many front nodes visited per frame, the next frame going on where
+    /// this one stopped (seed 001 §4). `None`: visit until nothing changes. Default `None`.
+    pub visit_limit: Option<usize>,
+    /// Amortisation by time: stop visiting after this long. Default `None`.
+    pub time_limit: Option<Duration>,
+    /// Geomorph length in frames; 0 turns geomorphs off. Default 0.
+    pub geomorph_frames: u32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            tolerance_px: 1.0,
+            mode: Mode::Tolerance,
+            tests: Tests::default(),
+            hysteresis: HYSTERESIS,
+            visit_limit: None,
+            time_limit: None,
+            geomorph_frames: 0,
+        }
+    }
+}
+
+/// A tenth of τ: wide enough that rounding and small camera jitter do not toggle a node, narrow
+/// enough that the front stays within 10 % of the tolerance.
+const HYSTERESIS: f32 = 0.1;
+
+/// Budget mode moves τ by this factor a frame: fast enough to follow a fly-in (τ halves in ~7
+/// frames), slow enough not to overshoot.
+const BUDGET_STEP: f32 = 1.1;
+/// Budget mode aims between these shares of N; splits that would exceed N are refused outright.
+const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
+
+/// What one frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct FrameStats {
+    pub active_vertices: u32,
+    pub triangles: u32,
+    pub splits: u32,
+    pub unifies: u32,
+    /// Front nodes examined.
+    pub visited: u32,
+    /// Vertices moving in a geomorph.
+    pub morphing: u32,
+    /// Time spent adapting, in seconds.
+    pub refine_secs: f64,
+    /// τ used this frame (varies in budget mode).
+    pub tolerance_px: f32,
+    /// A whole sweep of the front went by without a change.
+    pub converged: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Morph {
+    from: Vec3,
+    to: Vec3,
+    frame: u32,
+    /// Set on the two children of a node about to unify: the unify happens when they arrive.
+    unify_into: u32,
+}
+
+/// The runtime: a front, its settings, and the state carried from frame to frame.
+pub struct Refiner {
+    pub front: Front,
+    pub settings: Settings,
+    cursor: usize,
+    /// Visits since the last change; a whole front's worth means converged.
+    quiet_visits: usize,
+    morphs: HashMap<u32, Morph>,
+    /// (node, position) pairs the renderer must write this frame.
+    vertex_updates: Vec<(u32, Vec3)>,
+    budget_tau: f32,
+    /// The camera and τ of the last frame: a convergence holds only while they stay.
+    last_view: Option<(Camera, f32, Settings)>,
+}
+
+impl Refiner {
+    pub fn new(h: &Hierarchy, settings: Settings) -> Refiner {
+        Refiner {
+            front: Front::new(h),
+            settings,
+            cursor: 0,
+            quiet_visits: 0,
+            morphs: HashMap::new(),
+            vertex_updates: Vec::new(),
+            budget_tau: settings.tolerance_px,
+            last_view: None,
+        }
+    }
+
+    /// Vertex positions changed this frame by geomorphs (node id, displayed position). Every other
+    /// vertex stands at [`Hierarchy::position`].
+    pub fn vertex_updates(&self) -> &[(u32, Vec3)] {
+        &self.vertex_updates
+    }
+
+    /// Where node `u` is drawn now.
+    pub fn displayed(&self, h: &Hierarchy, u: u32) -> Vec3 {
+        match self.morphs.get(&u) {
+            Some(m) => m.from.lerp(m.to, self.morph_t(m)),
+            None => h.position[u as usize],
+        }
+    }
+
+    fn morph_t(&self, m: &Morph) -> f32 {
+        (m.frame as f32 / self.settings.geomorph_frames.max(1) as f32).min(1.0)
+    }
+
+    /// Adapts the front to one frame seen from `camera`.
+    pub fn update(&mut self, h: &Hierarchy, camera: &Camera) -> FrameStats {
+        let start = Instant::now();
+        let view = View::new(camera);
+        let (splits0, unifies0) = (self.front.splits, self.front.unifies);
+        self.vertex_updates.clear();
+        self.advance_morphs(h);
+
+        let tau = match self.settings.mode {
+            Mode::Tolerance => self.settings.tolerance_px,
+            Mode::Budget(n) => {
+                let t = self.front.triangle_count() as f32;
+                if t > BUDGET_BAND.1 * n as f32 {
+                    self.budget_tau *= BUDGET_STEP;
+                } else if t < BUDGET_BAND.0 * n as f32 {
+                    self.budget_tau /= BUDGET_STEP;
+                }
+                self.budget_tau = self.budget_tau.clamp(1e-3, 1e6);
+                self.budget_tau
+            }
+        };
+        let this_view = Some((*camera, tau, self.settings));
+        if self.last_view != this_view {
+            self.quiet_visits = 0;
+            self.last_view = this_view;
+        }
+        let cap = match self.settings.mode {
+            Mode::Budget(n) => n as usize,
+            Mode::Tolerance => usize::MAX,
+        };
+        let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
+        let mut visited = 0usize;
+        let mut converged = false;
+        while visited < limit {
+            if self.cursor >= self.front.active().len() {
+                self.cursor = 0;
+            }
+            if self.quiet_visits >= self.front.active().len() {
+                converged = true;
+                break;
+            }
+            if let Some(t) = self.settings.time_limit
+                && visited % 256 == 255
+                && start.elapsed() >= t
+            {
+                break;
+            }
+            let u = self.front.active()[self.cursor];
+            visited += 1;
+            if self.visit(h, &view, u, tau, cap) {
+                // The front changed under the cursor: whatever was swapped into it is next.
+                self.quiet_visits = 0;
+            } else {
+                self.quiet_visits += 1;
+                self.cursor += 1;
+            }
+        }
+        FrameStats {
+            active_vertices: self.front.active().len() as u32,
+            triangles: self.front.triangle_count() as u32,
+            splits: (self.front.splits - splits0) as u32,
+            unifies: (self.front.unifies - unifies0) as u32,
+            visited: visited as u32,
+            morphing: self.morphs.len() as u32,
+            refine_secs: start.elapsed().as_secs_f64(),
+            tolerance_px: tau,
+            converged,
+        }
+    }
+
+    /// Decides about active node `u`; returns whether the front changed.
+    fn visit(&mut self, h: &Hierarchy, view: &View, u: u32, tau: f32, cap: usize) -> bool {
+        let tests = self.settings.tests;
+        if let Some(m) = self.morphs.get(&u)
+            && m.unify_into != NIL
+        {
+            // Shrinking towards its parent: carry on unless the parent is wanted after all.
+            let p = m.unify_into;
+            if self.wants_unify(h, view, p, tau) {
+                return false;
+            }
+            self.cancel_unify(h, p);
+            return false;
+        }
+        if !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau {
+            return self.split(h, u, cap);
+        }
+        let p = h.parent[u as usize];
+        if p != NIL && self.front.can_unify(h, p) && self.wants_unify(h, view, p, tau) {
+            let instant = self.settings.geomorph_frames == 0 || !tests.visible(h, view, p);
+            if instant {
+                self.unify(h, p);
+                return true;
+            }
+            self.start_unify(h, p);
+        }
+        false
+    }
+
+    fn wants_unify(&self, h: &Hierarchy, view: &View, p: u32, tau: f32) -> bool {
+        let tests = self.settings.tests;
+        !tests.visible(h, view, p)
+            || (tests.screen_error
+                && tests.error_px(h, view, p) < tau * (1.0 - self.settings.hysteresis))
+    }
+
+    /// Splits `u` unless that would draw more than `cap` triangles; returns whether it did.
+    fn split(&mut self, h: &Hierarchy, u: u32, cap: usize) -> bool {
+        // Appearing triangles are an upper bound on the growth, except where the split parts
+        // coincident triangles; that rare case is undone below.
+        if self.front.triangle_count() + h.appearing(u).len() > cap {
+            return false;
+        }
+        let from = self.displayed(h, u);
+        self.front.split(h, u);
+        if self.front.triangle_count() > cap {
+            self.front.unify(h, u);
+            return false;
+        }
+        if self.morphs.remove(&u).is_some() {
+            self.vertex_updates.push((u, h.position[u as usize]));
+        }
+        if self.settings.geomorph_frames > 0 {
+            for c in h.children(u) {
+                self.morphs.insert(
+                    c,
+                    Morph {
+                        from,
+                        to: h.position[c as usize],
+                        frame: 0,
+                        unify_into: NIL,
+                    },
+                );
+                self.vertex_updates.push((c, from));
+            }
+        }
+        true
+    }
+
+    fn unify(&mut self, h: &Hierarchy, p: u32) {
+        for c in h.children(p) {
+            if self.morphs.remove(&c).is_some() {
+                self.vertex_updates.push((c, h.position[c as usize]));
+            }
+        }
+        self.front.unify(h, p);
+    }
+
+    /// The reverse geomorph: both children move to the parent's position, then unify.
+    fn start_unify(&mut self, h: &Hierarchy, p: u32) {
+        let to = h.position[p as usize];
+        for c in h.children(p) {
+            let from = self.displayed(h, c);
+            self.morphs.insert(
+                c,
+                Morph {
+                    from,
+                    to,
+                    frame: 0,
+                    unify_into: p,
+                },
+            );
+        }
+    }
+
+    /// The parent is wanted again halfway through a reverse geomorph: the children go back.
+    fn cancel_unify(&mut self, h: &Hierarchy, p: u32) {
+        for c in h.children(p) {
+            let from = self.displayed(h, c);
+            self.morphs.insert(
+                c,
+                Morph {
+                    from,
+                    to: h.position[c as usize],
+                    frame: 0,
+                    unify_into: NIL,
+                },
+            );
+        }
+    }
+
+    /// One frame of every geomorph; finished reverse geomorphs unify.
+    fn advance_morphs(&mut self, h: &Hierarchy) {
+        if self.morphs.is_empty() {
+            return;
+        }
+        let frames = self.settings.geomorph_frames;
+        let mut arrived = Vec::new();
+        let mut unify = Vec::new();
+        for (&u, m) in self.morphs.iter_mut() {
+            m.frame += 1;
+            if frames == 0 || m.frame >= frames {
+                arrived.push(u);
+                if m.unify_into != NIL {
+                    unify.push(m.unify_into);
+                }
+            }
+        }
+        for u in arrived {
+            self.morphs.remove(&u);
+            self.vertex_updates.push((u, h.position[u as usize]));
+        }
+        unify.sort_unstable();
+        unify.dedup();
+        for p in unify {
+            if self.front.can_unify(h, p) {
+                self.unify(h, p);
+            }
+        }
+        let updates: Vec<(u32, Vec3)> = self
+            .morphs
+            .iter()
+            .map(|(&u, m)| (u, m.from.lerp(m.to, self.morph_t(m))))
+            .collect();
+        self.vertex_updates.extend(updates);
+    }
+}

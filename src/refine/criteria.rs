@@ -1,0 +1,258 @@
+//! The camera and the three view tests of seed 001 §3.2–3.3 as every view-dependent LOD system has them
+//! (SPEC §1.4): the frustum test on a node's bounding sphere, the normal test on its normal cone, and the
+//! screen-space error test in pixels.
+
+use super::hierarchy::Hierarchy;
+use glam::{Mat4, Quat, Vec3, Vec4};
+
+/// A perspective camera. The camera looks down its local −Z with +Y up; `orientation` turns local
+/// into world directions.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Camera {
+    pub position: Vec3,
+    pub orientation: Quat,
+    /// Vertical field of view.
+    pub fov_y_radians: f32,
+    /// Width and height of the image in pixels.
+    pub viewport_px: [u32; 2],
+    pub near: f32,
+    pub far: f32,
+}
+
+impl Camera {
+    /// A camera at `position` looking at `target`, `up` roughly up.
+    pub fn looking_at(
+        position: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_y_radians: f32,
+        viewport_px: [u32; 2],
+        near: f32,
+        far: f32,
+    ) -> Camera {
+        Camera {
+            position,
+            orientation: look_rotation(target - position, up),
+            fov_y_radians,
+            viewport_px,
+            near,
+            far,
+        }
+    }
+
+    pub fn forward(&self) -> Vec3 {
+        self.orientation * Vec3::NEG_Z
+    }
+
+    pub fn aspect(&self) -> f32 {
+        self.viewport_px[0].max(1) as f32 / self.viewport_px[1].max(1) as f32
+    }
+
+    pub fn view_from_world(&self) -> Mat4 {
+        Mat4::from_rotation_translation(self.orientation, self.position).inverse()
+    }
+
+    /// Depth in `[0, 1]`, Y up: wgpu's clip space.
+    pub fn clip_from_view(&self) -> Mat4 {
+        glam::camera::rh::proj::directx::perspective(
+            self.fov_y_radians,
+            self.aspect(),
+            self.near,
+            self.far,
+        )
+    }
+
+    pub fn clip_from_world(&self) -> Mat4 {
+        self.clip_from_view() * self.view_from_world()
+    }
+}
+
+/// The rotation turning −Z towards `forward` with +Y as close to `up` as it can be.
+pub fn look_rotation(forward: Vec3, up: Vec3) -> Quat {
+    let f = forward.normalize_or(Vec3::NEG_Z);
+    let mut right = f.cross(up);
+    if right.length_squared() < 1e-12 {
+        // Looking straight along `up`: any right will do.
+        right = f.any_orthonormal_vector();
+    }
+    let right = right.normalize();
+    let true_up = right.cross(f);
+    Quat::from_mat3(&glam::Mat3::from_cols(right, true_up, -f)).normalize()
+}
+
+/// One frame's view, prepared once and asked about many nodes.
+#[derive(Clone, Copy, Debug)]
+pub struct View {
+    pub eye: Vec3,
+    /// Inward-facing planes `(n, d)`, `|n| = 1`: left, right, bottom, top, near, far.
+    planes: [Vec4; 6],
+    /// Pixels covered by one unit of length, facing the camera at distance 1:
+    /// `height / (2 tan(fov / 2))`.
+    px_per_unit: f32,
+    near: f32,
+}
+
+impl View {
+    pub fn new(camera: &Camera) -> View {
+        let m = camera.clip_from_world();
+        let [r0, r1, r2, r3] = [m.row(0), m.row(1), m.row(2), m.row(3)];
+        // Gribb & Hartmann: with depth in [0, 1] the near plane is row 2 alone.
+        let planes = [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2].map(|p| {
+            let len = p.truncate().length();
+            if len > 0.0 { p / len } else { p }
+        });
+        View {
+            eye: camera.position,
+            planes,
+            px_per_unit: camera.viewport_px[1] as f32 / (2.0 * (camera.fov_y_radians * 0.5).tan()),
+            near: camera.near,
+        }
+    }
+
+    /// Frustum test: is the sphere wholly outside one plane?
+    #[inline]
+    pub fn outside(&self, center: Vec3, radius: f32) -> bool {
+        self.planes
+            .iter()
+            .any(|p| p.truncate().dot(center) + p.w < -radius)
+    }
+
+    /// Normal test (Shirman & Abi-Ezzi's cone test): does every face in the sphere with a normal in
+    /// the cone `(axis, sin θ)` face away from the eye? Directions from the eye into the sphere stay
+    /// within α of the centre's, `sin α = r / d`; all faces face away when the axis is within
+    /// `90° − θ − α` of that direction.
+    #[inline]
+    pub fn back_facing(&self, center: Vec3, radius: f32, cone: [f32; 4]) -> bool {
+        let sin_t = cone[3];
+        if sin_t >= 1.0 {
+            return false;
+        }
+        let v = center - self.eye;
+        let d = v.length();
+        if d <= radius {
+            return false;
+        }
+        let sin_a = radius / d;
+        let (cos_t, cos_a) = ((1.0 - sin_t * sin_t).sqrt(), (1.0 - sin_a * sin_a).sqrt());
+        // cos(θ + α) ≥ 0 and axis·v̂ ≥ sin(θ + α).
+        cos_t * cos_a - sin_t * sin_a >= 0.0
+            && Vec3::new(cone[0], cone[1], cone[2]).dot(v) >= d * (sin_t * cos_a + cos_t * sin_a)
+    }
+
+    /// Screen-space error: an object-space error seen at the nearest distance of the sphere (never
+    /// nearer than the near plane, where geometry is clipped anyway), in pixels.
+    #[inline]
+    pub fn projected_px(&self, error: f32, center: Vec3, radius: f32) -> f32 {
+        let d = (center.distance(self.eye) - radius).max(self.near);
+        error * self.px_per_unit / d
+    }
+}
+
+/// Which view tests refinement applies; each can be switched off alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Tests {
+    pub frustum: bool,
+    pub normal: bool,
+    pub screen_error: bool,
+}
+
+impl Default for Tests {
+    fn default() -> Self {
+        Tests {
+            frustum: true,
+            normal: true,
+            screen_error: true,
+        }
+    }
+}
+
+impl Tests {
+    /// Can the node be seen at all: not wholly outside the frustum, not wholly facing away?
+    #[inline]
+    pub fn visible(&self, h: &Hierarchy, view: &View, u: u32) -> bool {
+        let k = (u - h.leaf_count) as usize;
+        let (c, r) = (h.position[u as usize], h.internal_radius[k]);
+        let culled = (self.frustum && view.outside(c, r))
+            || (self.normal && view.back_facing(c, r, h.internal_cone[k]));
+        !culled
+    }
+
+    /// The node's error on screen, in pixels (infinite with the screen-space test off, so that every
+    /// visible node refines).
+    #[inline]
+    pub fn error_px(&self, h: &Hierarchy, view: &View, u: u32) -> f32 {
+        if !self.screen_error {
+            return f32::INFINITY;
+        }
+        let k = (u - h.leaf_count) as usize;
+        view.projected_px(
+            h.internal_error[k],
+            h.position[u as usize],
+            h.internal_radius[k],
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> Camera {
+        Camera::looking_at(
+            Vec3::new(0.0, 0.0, 10.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            60f32.to_radians(),
+            [800, 600],
+            0.1,
+            100.0,
+        )
+    }
+
+    #[test]
+    fn frustum_test() {
+        let v = View::new(&camera());
+        assert!(!v.outside(Vec3::ZERO, 0.1));
+        assert!(v.outside(Vec3::new(0.0, 0.0, 20.0), 1.0), "behind the eye");
+        assert!(v.outside(Vec3::new(0.0, 0.0, -200.0), 1.0), "beyond far");
+        // tan(30°)·10 ≈ 5.77 is the top edge at the origin's depth.
+        assert!(v.outside(Vec3::new(0.0, 7.0, 0.0), 1.0));
+        assert!(
+            !v.outside(Vec3::new(0.0, 6.5, 0.0), 1.0),
+            "straddles the top plane"
+        );
+    }
+
+    #[test]
+    fn normal_test() {
+        let v = View::new(&camera());
+        let away = [0.0, 0.0, -1.0, 0.1];
+        let toward = [0.0, 0.0, 1.0, 0.1];
+        assert!(v.back_facing(Vec3::ZERO, 0.5, away));
+        assert!(!v.back_facing(Vec3::ZERO, 0.5, toward));
+        // Side-on faces may be seen: a 90° cone is never wholly back-facing.
+        assert!(!v.back_facing(Vec3::ZERO, 0.5, [0.0, 0.0, -1.0, 1.0]));
+        // A big sphere close by: its directions spread 64° about −Z, so a 5.7° cone of normals still
+        // faces away everywhere, but a 30° cone (64° + 30° > 90°) grazes the eye somewhere.
+        assert!(v.back_facing(Vec3::ZERO, 9.0, away));
+        assert!(!v.back_facing(Vec3::ZERO, 9.0, [0.0, 0.0, -1.0, 0.5]));
+    }
+
+    #[test]
+    fn projected_error_in_pixels() {
+        let v = View::new(&camera());
+        // 600 px / (2 tan 30°) ≈ 519.6 px per unit at distance 1; error 0.1 at distance 10 → 5.2 px.
+        let px = v.projected_px(0.1, Vec3::ZERO, 0.0);
+        assert!((px - 5.196).abs() < 1e-2, "{px}");
+        // Nearest point of the sphere counts: radius 5 → distance 5 → twice the pixels.
+        assert!((v.projected_px(0.1, Vec3::ZERO, 5.0) - 2.0 * px).abs() < 1e-2);
+    }
+
+    #[test]
+    fn look_rotation_looks() {
+        let c = camera();
+        assert!((c.forward() - Vec3::NEG_Z).length() < 1e-6);
+        let p = c.clip_from_world() * Vec4::new(0.0, 1.0, 0.0, 1.0);
+        assert!(p.y > 0.0, "up is up in clip space");
+    }
+}
