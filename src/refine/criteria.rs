@@ -2,7 +2,7 @@
 //! (SPEC §1.4): the frustum test on a node's bounding sphere, the normal test on its normal cone, and the
 //! screen-space error test in pixels.
 
-use super::hierarchy::Hierarchy;
+use super::hierarchy::{Hierarchy, decode_normal};
 use glam::{Mat4, Quat, Vec3, Vec4};
 
 /// A perspective camera. The camera looks down its local −Z with +Y up; `orientation` turns local
@@ -122,8 +122,7 @@ impl View {
     /// within α of the centre's, `sin α = r / d`; all faces face away when the axis is within
     /// `90° − θ − α` of that direction.
     #[inline]
-    pub fn back_facing(&self, center: Vec3, radius: f32, cone: [f32; 4]) -> bool {
-        let sin_t = cone[3];
+    pub fn back_facing(&self, center: Vec3, radius: f32, axis: Vec3, sin_t: f32) -> bool {
         if sin_t >= 1.0 {
             return false;
         }
@@ -135,8 +134,7 @@ impl View {
         let sin_a = radius / d;
         let (cos_t, cos_a) = ((1.0 - sin_t * sin_t).sqrt(), (1.0 - sin_a * sin_a).sqrt());
         // cos(θ + α) ≥ 0 and axis·v̂ ≥ sin(θ + α).
-        cos_t * cos_a - sin_t * sin_a >= 0.0
-            && Vec3::new(cone[0], cone[1], cone[2]).dot(v) >= d * (sin_t * cos_a + cos_t * sin_a)
+        cos_t * cos_a - sin_t * sin_a >= 0.0 && axis.dot(v) >= d * (sin_t * cos_a + cos_t * sin_a)
     }
 
     /// Screen-space error: an object-space error seen at the nearest distance of the sphere (never
@@ -173,7 +171,10 @@ impl Tests {
         let k = (u - h.leaf_count) as usize;
         let (c, r) = (h.position[u as usize], h.internal_radius[k]);
         let culled = (self.frustum && view.outside(c, r))
-            || (self.normal && view.back_facing(c, r, h.internal_cone[k]));
+            || (self.normal && {
+                let (axis, sin_t) = h.internal_cone[k];
+                view.back_facing(c, r, decode_normal(axis), sin_t)
+            });
         !culled
     }
 
@@ -226,16 +227,15 @@ mod tests {
     #[test]
     fn normal_test() {
         let v = View::new(&camera());
-        let away = [0.0, 0.0, -1.0, 0.1];
-        let toward = [0.0, 0.0, 1.0, 0.1];
-        assert!(v.back_facing(Vec3::ZERO, 0.5, away));
-        assert!(!v.back_facing(Vec3::ZERO, 0.5, toward));
+        let (away, toward) = (Vec3::NEG_Z, Vec3::Z);
+        assert!(v.back_facing(Vec3::ZERO, 0.5, away, 0.1));
+        assert!(!v.back_facing(Vec3::ZERO, 0.5, toward, 0.1));
         // Side-on faces may be seen: a 90° cone is never wholly back-facing.
-        assert!(!v.back_facing(Vec3::ZERO, 0.5, [0.0, 0.0, -1.0, 1.0]));
+        assert!(!v.back_facing(Vec3::ZERO, 0.5, away, 1.0));
         // A big sphere close by: its directions spread 64° about −Z, so a 5.7° cone of normals still
         // faces away everywhere, but a 30° cone (64° + 30° > 90°) grazes the eye somewhere.
-        assert!(v.back_facing(Vec3::ZERO, 9.0, away));
-        assert!(!v.back_facing(Vec3::ZERO, 9.0, [0.0, 0.0, -1.0, 0.5]));
+        assert!(v.back_facing(Vec3::ZERO, 9.0, away, 0.1));
+        assert!(!v.back_facing(Vec3::ZERO, 9.0, away, 0.5));
     }
 
     #[test]
@@ -246,6 +246,31 @@ mod tests {
         assert!((px - 5.196).abs() < 1e-2, "{px}");
         // Nearest point of the sphere counts: radius 5 → distance 5 → twice the pixels.
         assert!((v.projected_px(0.1, Vec3::ZERO, 5.0) - 2.0 * px).abs() < 1e-2);
+    }
+
+    #[test]
+    fn octahedral_normals_round_trip() {
+        let mut worst: f32 = 0.0;
+        for i in 0..2000 {
+            let (a, b) = (i as f32 * 0.7331, i as f32 * 1.917);
+            let n = Vec3::new(a.sin() * b.cos(), a.sin() * b.sin(), a.cos()).normalize();
+            let back = decode_normal(crate::refine::hierarchy::encode_normal(n));
+            let err = n.dot(back).clamp(-1.0, 1.0).acos();
+            assert!(err < 0.01, "{n} -> {back}");
+            worst = worst.max(err);
+        }
+        assert!(
+            worst < crate::refine::hierarchy::OCT_ERROR_RADIANS,
+            "{worst}"
+        );
+        assert_eq!(
+            decode_normal(crate::refine::hierarchy::NO_NORMAL),
+            Vec3::ZERO
+        );
+        assert_eq!(
+            decode_normal(crate::refine::hierarchy::encode_normal(Vec3::ZERO)),
+            Vec3::ZERO
+        );
     }
 
     #[test]

@@ -36,6 +36,15 @@ const DEAD: u32 = u32::MAX;
 /// `slot` of a live triangle that is not drawn: another live triangle has the same corners.
 const HIDDEN: u32 = u32::MAX - 1;
 
+fn key(mut c: [u32; 3]) -> [u32; 3] {
+    c.sort_unstable();
+    c
+}
+
+/// Up to this many triangles around an operation, coincident ones are looked for by comparing every
+/// pair; more (rare: high-valence nodes of coarse fronts) are sorted.
+const SCAN_LIMIT: usize = 32;
+
 /// Dirty tracking granularity, in triangles: one bit per 64 triangles (768 bytes of indices).
 const DIRTY_BLOCK: u32 = 64;
 
@@ -219,6 +228,8 @@ impl Front {
         self.deactivate(u, SPLIT);
         self.activate(c0);
         self.activate(c1);
+        let mut group = std::mem::take(&mut self.group);
+        group.clear();
         // The triangles around u go to the child holding their input corner.
         let mut t = std::mem::replace(&mut self.head[u as usize], NIL);
         while t != NIL {
@@ -227,6 +238,7 @@ impl Front {
             let c = h.child_toward(u, h.triangles[t as usize][k]);
             self.corner[t as usize][k] = c;
             self.push_around(c, t, k);
+            group.push((key(self.corner[t as usize]), t));
             t = next;
         }
         // The triangles whose corners u kept together appear (corner 2 lies outside u's subtree).
@@ -244,8 +256,9 @@ impl Front {
                 self.push_around(v, t, k);
             }
             self.slot[t as usize] = HIDDEN;
+            group.push((key(c), t));
         }
-        self.settle(&[c0, c1]);
+        self.settle(group);
         self.splits += 1;
     }
 
@@ -259,6 +272,8 @@ impl Front {
         self.deactivate(c0, BELOW);
         self.deactivate(c1, BELOW);
         self.activate(p);
+        let mut group = std::mem::take(&mut self.group);
+        group.clear();
         for (c, other) in [(c0, c1), (c1, c0)] {
             let mut t = std::mem::replace(&mut self.head[c as usize], NIL);
             while t != NIL {
@@ -277,11 +292,12 @@ impl Front {
                 } else {
                     self.corner[t as usize][k] = p;
                     self.push_around(p, t, k);
+                    group.push((key(self.corner[t as usize]), t));
                 }
                 t = next;
             }
         }
-        self.settle(&[p]);
+        self.settle(group);
         self.unifies += 1;
     }
 
@@ -306,24 +322,26 @@ impl Front {
         }
     }
 
-    /// After an operation: every live triangle around `nodes` has new corners. Of each set with the
-    /// same corners one is drawn (the one already drawn, if any, to keep slots still); its indices are
-    /// rewritten.
-    fn settle(&mut self, nodes: &[u32]) {
-        let mut group = std::mem::take(&mut self.group);
-        group.clear();
-        for &u in nodes {
-            let mut t = self.head[u as usize];
-            while t != NIL {
-                let c = self.corner[t as usize];
-                let mut key = c;
-                key.sort_unstable();
-                group.push((key, t));
-                t = self.next[t as usize][self.corner_at(t, u)];
+    /// After an operation: `group` holds every live triangle that got new corners, with its sorted
+    /// corners. Those are all the triangles around the operation's new nodes, so every triangle
+    /// coincident with one of them is in the group too. Of each set with the same corners one is
+    /// drawn (the one already drawn, if any, to keep slots still); its indices are rewritten.
+    fn settle(&mut self, mut group: Vec<([u32; 3], u32)>) {
+        // Coincident triangles are rare: look for any before sorting (a dozen triangles, so a
+        // quadratic scan is the cheaper test).
+        let coincident = group.len() > SCAN_LIMIT
+            || group
+                .iter()
+                .enumerate()
+                .any(|(i, a)| group[..i].iter().any(|b| b.0 == a.0));
+        if !coincident {
+            for &(_, t) in &group {
+                self.draw(t);
             }
+            self.group = group;
+            return;
         }
         group.sort_unstable();
-        group.dedup();
         let mut i = 0;
         while i < group.len() {
             let key = group[i].0;
@@ -403,9 +421,9 @@ impl Front {
 
     /// Unifies until the root alone is active.
     pub fn coarsen_all(&mut self, h: &Hierarchy) {
-        // Children precede parents in node order: a sweep upwards unifies each split node once its
-        // children are both active.
-        for p in h.leaf_count..h.node_count() {
+        // Internal nodes are in pre-order: a reverse sweep unifies each split node after its
+        // children.
+        for p in (h.leaf_count..h.node_count()).rev() {
             if self.state[p as usize] == SPLIT {
                 self.unify(h, p);
             }

@@ -12,37 +12,39 @@ use glam::Vec3;
 
 /// Per-node and per-triangle data of a vertex tree, ready for [`super::Front`].
 ///
-/// Node numbering is the file's: leaves `0..leaf_count` (the input's vertices), then internal nodes,
-/// children before parents, the root last. Arrays named `internal_*` are indexed by `u - leaf_count`.
+/// Nodes are renumbered depth-first: leaves `0..leaf_count` in depth-first order (so every subtree's
+/// leaves are a range of ids), then internal nodes in pre-order, the root first. Nodes and triangles
+/// near each other in the tree are near each other in memory, which is what a moving camera touches.
+/// Arrays named `internal_*` are indexed by `u - leaf_count`.
 pub struct Hierarchy {
     pub leaf_count: u32,
     /// Position of every node: the vertex it is when it is on the front.
     pub position: Vec<Vec3>,
     pub parent: Vec<u32>,
-    /// Unit normal of every node, for shading (zero when unknown).
-    pub normal: Vec<Vec3>,
-    /// Linear RGB of every node; empty when the model has no colours.
-    pub color: Vec<[f32; 3]>,
+    /// Unit normal of every node, octahedral-encoded in two `i16` (see [`decode_normal`]), for
+    /// shading; [`NO_NORMAL`] when unknown.
+    pub normal: Vec<[i16; 2]>,
+    /// Linear RGB of every node as RGBA8; empty when the model has no colours.
+    pub color: Vec<[u8; 4]>,
     pub internal_children: Vec<[u32; 2]>,
     /// Object-space error (see [`crate::vtree::Node::error`]); never less than a child's.
     pub internal_error: Vec<f32>,
     /// Radius of a sphere about the node's *position* holding its subtree's surface: one point per
     /// node instead of a separate centre, at the cost of a slightly larger sphere.
     pub internal_radius: Vec<f32>,
-    /// Normal cone of the subtree's faces: `(axis, sin of the half-angle)`, oriented outwards (see
-    /// [`Hierarchy::inward`]); `sin ≥ 1` when the cone spans a hemisphere or more.
-    pub internal_cone: Vec<[f32; 4]>,
-    /// Leaves of the subtree are those with `leaf_rank` in `[lo, hi)`; the first child's are below
-    /// `internal_mid`. Depth-first order makes every subtree a range of ranks.
+    /// Normal cone of the subtree's faces, oriented outwards (see [`Hierarchy::inward`]): axis
+    /// octahedral-encoded, and the sine of the half-angle widened by the encoding's error; a sine of
+    /// at least 1 when the cone spans a hemisphere or more (never wholly back-facing).
+    pub internal_cone: Vec<([i16; 2], f32)>,
+    /// The first leaf of the second child: leaves below it in the subtree belong to the first.
     pub internal_mid: Vec<u32>,
-    pub leaf_rank: Vec<u32>,
     /// Every input triangle (leaf corners, input winding) grouped by `d(t)`, cyclically rotated so
     /// that corner 2 lies outside the subtree of `d(t)` and corners 0 and 1 inside it.
     pub triangles: Vec<[u32; 3]>,
     /// `triangles[appear_offsets[k]..appear_offsets[k + 1]]` appear when internal node `k` splits.
     pub appear_offsets: Vec<u32>,
-    /// Depth of every node below the root (saturating), for debug colouring.
-    pub depth: Vec<u8>,
+    /// The input vertex of each leaf.
+    pub input_vertex: Vec<u32>,
     /// The input's faces wind clockwise seen from outside (negative signed volume, like the horse
     /// model): cones were flipped so that the normal test still culls the far side.
     pub inward: bool,
@@ -52,21 +54,62 @@ pub struct Hierarchy {
 /// Widen spheres and cones by this relative amount so float rounding never lets a member poke out.
 const BOUND_SLACK: f32 = 1e-5;
 
+/// Largest angle between a unit vector and its 16-bit octahedral encoding, decoded (6e-4 rad measured
+/// by the round-trip test; padded), which cone tests add to the half-angle.
+pub(crate) const OCT_ERROR_RADIANS: f32 = 2e-3;
+
 impl Hierarchy {
     pub fn new(tree: &VertexTree) -> Hierarchy {
         let n = tree.leaf_count;
         let count = tree.nodes.len();
-        let nodes = &tree.nodes;
-        let position: Vec<Vec3> = nodes.iter().map(|x| x.position()).collect();
-        let parent: Vec<u32> = nodes.iter().map(|x| x.parent).collect();
-        let normal = nodes.iter().map(|x| Vec3::from_array(x.normal)).collect();
+        let old = &tree.nodes;
+
+        // Depth-first numbering: `new_id[old]`, and the old id of each new one.
+        let mut new_id = vec![NIL; count];
+        let mut old_of = vec![NIL; count];
+        let (mut next_leaf, mut next_internal) = (0u32, n);
+        let mut stack = vec![tree.root()];
+        while let Some(u) = stack.pop() {
+            let id = if u < n {
+                next_leaf += 1;
+                next_leaf - 1
+            } else {
+                next_internal += 1;
+                next_internal - 1
+            };
+            new_id[u as usize] = id;
+            old_of[id as usize] = u;
+            if u >= n {
+                let [c0, c1] = old[u as usize].children;
+                stack.push(c1);
+                stack.push(c0);
+            }
+        }
+        let node = |id: u32| &old[old_of[id as usize] as usize];
+        let renumber = |u: u32| if u == NIL { NIL } else { new_id[u as usize] };
+
+        let position: Vec<Vec3> = (0..count as u32).map(|u| node(u).position()).collect();
+        let parent: Vec<u32> = (0..count as u32)
+            .map(|u| renumber(node(u).parent))
+            .collect();
+        let normal = (0..count as u32)
+            .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
+            .collect();
         let color = if tree.has_colors {
-            nodes.iter().map(|x| x.color).collect()
+            (0..count as u32)
+                .map(|u| {
+                    let c = node(u)
+                        .color
+                        .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+                    [c[0], c[1], c[2], 255]
+                })
+                .collect()
         } else {
             Vec::new()
         };
-        let internal = &nodes[n as usize..];
-        let internal_children: Vec<[u32; 2]> = internal.iter().map(|x| x.children).collect();
+        let internal: Vec<&crate::vtree::Node> = (n..count as u32).map(node).collect();
+        let internal_children: Vec<[u32; 2]> =
+            internal.iter().map(|x| x.children.map(renumber)).collect();
         let internal_error = internal.iter().map(|x| x.error).collect();
         let internal_radius = internal
             .iter()
@@ -75,52 +118,35 @@ impl Hierarchy {
                 (center.distance(x.position()) + x.sphere[3]) * (1.0 + BOUND_SLACK)
             })
             .collect();
-
-        // Depth-first leaf ranks; `lo`/`hi` per internal node only while building.
-        let mut leaf_rank = vec![0u32; n as usize];
+        // Leaf ranges: internal nodes in pre-order, so a reverse sweep meets children first.
         let mut lo = vec![0u32; internal.len()];
         let mut hi = vec![0u32; internal.len()];
-        let mut internal_mid = vec![0u32; internal.len()];
-        let mut depth = vec![0u8; count];
-        let mut next_rank = 0;
-        // (node, children done?) — iterative, the tree may be deep.
-        let mut stack = vec![(tree.root(), false)];
-        while let Some((u, done)) = stack.pop() {
-            if u < n {
-                leaf_rank[u as usize] = next_rank;
-                next_rank += 1;
-                continue;
-            }
-            let k = (u - n) as usize;
+        for k in (0..internal.len()).rev() {
             let [c0, c1] = internal_children[k];
-            if done {
-                hi[k] = next_rank;
-                internal_mid[k] = if c1 < n {
-                    leaf_rank[c1 as usize]
-                } else {
-                    lo[(c1 - n) as usize]
-                };
-                continue;
-            }
-            lo[k] = next_rank;
-            for c in [c0, c1] {
-                depth[c as usize] = depth[u as usize].saturating_add(1);
-            }
-            stack.push((u, true));
-            stack.push((c1, false));
-            stack.push((c0, false));
+            let first = if c0 < n { c0 } else { lo[(c0 - n) as usize] };
+            let end = if c1 < n {
+                c1 + 1
+            } else {
+                hi[(c1 - n) as usize]
+            };
+            (lo[k], hi[k]) = (first, end);
         }
+        let internal_mid: Vec<u32> = internal_children
+            .iter()
+            .map(|&[_, c1]| if c1 < n { c1 } else { lo[(c1 - n) as usize] })
+            .collect();
         let contains = |u: u32, leaf: u32| {
             let k = (u - n) as usize;
-            (lo[k]..hi[k]).contains(&leaf_rank[leaf as usize])
+            (lo[k]..hi[k]).contains(&leaf)
         };
 
         // d(t) and the rotation that puts the outside corner last.
-        let inward = signed_volume(&position, &tree.triangles) < 0.0;
+        let inward = signed_volume(&tree.nodes, &tree.triangles) < 0.0;
         let mut keyed: Vec<(u32, [u32; 3])> = tree
             .triangles
             .iter()
-            .map(|&t| {
+            .map(|t| {
+                let t = t.map(renumber);
                 let [x, y, z] = t;
                 let mut a = parent[x as usize];
                 while !contains(a, y) && !contains(a, z) {
@@ -161,10 +187,15 @@ impl Hierarchy {
                 let cos = x.cone[3];
                 if axis == Vec3::ZERO || cos <= 0.0 {
                     // Empty (no faces) or a hemisphere and more: never wholly back-facing.
-                    return [Vec3::Z.x, Vec3::Z.y, Vec3::Z.z, f32::INFINITY];
+                    return (NO_NORMAL, f32::INFINITY);
                 }
-                let sin = (1.0 - cos * cos).max(0.0).sqrt() * (1.0 + BOUND_SLACK) + BOUND_SLACK;
-                [axis.x, axis.y, axis.z, sin]
+                let angle = cos.min(1.0).acos() * (1.0 + BOUND_SLACK) + OCT_ERROR_RADIANS;
+                let sin = if angle >= std::f32::consts::FRAC_PI_2 {
+                    f32::INFINITY
+                } else {
+                    angle.sin()
+                };
+                (encode_normal(axis), sin)
             })
             .collect();
 
@@ -179,10 +210,9 @@ impl Hierarchy {
             internal_radius,
             internal_cone,
             internal_mid,
-            leaf_rank,
             triangles,
             appear_offsets,
-            depth,
+            input_vertex: old_of[..n as usize].to_vec(),
             inward,
             diagonal: tree.diagonal(),
         }
@@ -192,8 +222,13 @@ impl Hierarchy {
         self.position.len() as u32
     }
 
+    /// The root: the first internal node in pre-order (or the only leaf of a one-vertex tree).
     pub fn root(&self) -> u32 {
-        self.node_count() - 1
+        if self.node_count() == 1 {
+            0
+        } else {
+            self.leaf_count
+        }
     }
 
     pub fn is_leaf(&self, u: u32) -> bool {
@@ -232,7 +267,7 @@ impl Hierarchy {
     #[inline]
     pub fn child_toward(&self, u: u32, leaf: u32) -> u32 {
         let k = (u - self.leaf_count) as usize;
-        let side = (self.leaf_rank[leaf as usize] >= self.internal_mid[k]) as usize;
+        let side = (leaf >= self.internal_mid[k]) as usize;
         self.internal_children[k][side]
     }
 
@@ -248,23 +283,67 @@ impl Hierarchy {
             + size_of_val(&self.internal_radius[..])
             + size_of_val(&self.internal_cone[..])
             + size_of_val(&self.internal_mid[..])
-            + size_of_val(&self.leaf_rank[..])
             + size_of_val(&self.triangles[..])
             + size_of_val(&self.appear_offsets[..])
-            + size_of_val(&self.depth[..])
+            + size_of_val(&self.input_vertex[..])
+    }
+
+    /// Every node, parents before children: internal nodes in pre-order, then the leaves.
+    pub fn top_down(&self) -> impl Iterator<Item = u32> {
+        (self.leaf_count..self.node_count()).chain(0..self.leaf_count)
+    }
+
+    /// Depth of node `u` below the root (a walk up: for debug colouring, not for inner loops).
+    pub fn depth(&self, u: u32) -> u32 {
+        let mut d = 0;
+        let mut w = u;
+        while self.parent[w as usize] != NIL {
+            w = self.parent[w as usize];
+            d += 1;
+        }
+        d
     }
 }
 
 /// Six times the signed volume enclosed by the triangles (positive when they wind counter-clockwise
 /// seen from outside). Open meshes give a rough answer, which is all the orientation guess needs.
-fn signed_volume(position: &[Vec3], triangles: &[[u32; 3]]) -> f64 {
+fn signed_volume(nodes: &[crate::vtree::Node], triangles: &[[u32; 3]]) -> f64 {
     triangles
         .iter()
         .map(|t| {
-            let [a, b, c] = t.map(|v| position[v as usize].as_dvec3());
+            let [a, b, c] = t.map(|v| nodes[v as usize].position().as_dvec3());
             a.dot(b.cross(c))
         })
         .sum()
+}
+
+/// The encoding of an unknown (zero) normal: −32768 never comes out of a unit vector.
+pub const NO_NORMAL: [i16; 2] = [i16::MIN, i16::MIN];
+
+/// Octahedral encoding of a unit vector in two snorm16 (Cigolle et al. 2014); zero gives
+/// [`NO_NORMAL`].
+pub fn encode_normal(n: Vec3) -> [i16; 2] {
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+    if l1 == 0.0 || !l1.is_finite() {
+        return NO_NORMAL;
+    }
+    let (mut x, mut y) = (n.x / l1, n.y / l1);
+    if n.z < 0.0 {
+        (x, y) = ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum());
+    }
+    [x, y].map(|v| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16)
+}
+
+/// The unit vector of [`encode_normal`] (zero for [`NO_NORMAL`]).
+pub fn decode_normal(e: [i16; 2]) -> Vec3 {
+    if e == NO_NORMAL {
+        return Vec3::ZERO;
+    }
+    let (x, y) = (e[0] as f32 / 32767.0, e[1] as f32 / 32767.0);
+    let z = 1.0 - x.abs() - y.abs();
+    let t = (-z).max(0.0);
+    let v = Vec3::new(x - t * x.signum(), y - t * y.signum(), z);
+    v.normalize()
 }
 
 /// Marks the end of a list or a missing link.

@@ -11,7 +11,7 @@ use std::collections::{HashMap, HashSet};
 pub fn check_front(h: &Hierarchy, front: &Front) -> Result<(), String> {
     let count = h.node_count();
     // States, parents first.
-    for u in (0..count).rev() {
+    for u in h.top_down() {
         let s = front.state(u);
         let p = h.parent[u as usize];
         let allowed: &[u8] = if p == NIL || front.state(p) == SPLIT {
@@ -42,7 +42,7 @@ pub fn check_front(h: &Hierarchy, front: &Front) -> Result<(), String> {
     }
     // g: the active node standing for every node, parents first.
     let mut rep = vec![NIL; count as usize];
-    for u in (0..count).rev() {
+    for u in h.top_down() {
         rep[u as usize] = match front.state(u) {
             ACTIVE => u,
             BELOW => rep[h.parent[u as usize] as usize],

@@ -4,6 +4,7 @@
 pub mod bounds;
 pub mod collapse;
 pub mod features;
+pub mod geometry;
 pub mod metric;
 pub mod pairs;
 pub mod quadric;
