@@ -12,9 +12,11 @@
 //!   ([`Hierarchy::appearing`]), i.e. when its three corners are distinct;
 //! * of live triangles with the same three corners (coincident, seed 001 Fig. 3b) one is drawn.
 //!
-//! Each active node heads a list of the live triangles around it, threaded through the triangles
-//! themselves (`next[t][k]` follows corner `k`), so a split or unify costs time in proportion to the
-//! triangles around the node and never scans the front or the triangle list. Coincident triangles share
+//! Each active node heads a list of the live triangles around it, threaded through the triangles'
+//! records (`next[k]` follows corner `k`), so a split or unify costs time in proportion to the
+//! triangles around the node and never scans the front or the triangle list. Only live triangles have
+//! a record (32 bytes, recycled); the rest cost 4 bytes each, so memory follows the front, not the
+//! model. Coincident triangles share
 //! all three corners, so all of them are in the lists an operation walks: resolving which is drawn
 //! stays local too.
 //!
@@ -31,15 +33,14 @@ pub const BELOW: u8 = 0;
 pub const ACTIVE: u8 = 1;
 pub const SPLIT: u8 = 2;
 
-/// `slot` of a triangle that is not live (two corners coincide).
-const DEAD: u32 = u32::MAX;
 /// `slot` of a live triangle that is not drawn: another live triangle has the same corners.
-const HIDDEN: u32 = u32::MAX - 1;
-
-fn key(mut c: [u32; 3]) -> [u32; 3] {
-    c.sort_unstable();
-    c
-}
+const HIDDEN: u32 = u32::MAX;
+/// `slot` of a record whose triangle degenerated in a unify. It stays in the list of its third corner
+/// until that list is next walked, which drops it and frees it: cheaper than searching the list for
+/// it at once.
+const DEAD: u32 = u32::MAX - 1;
+/// `slot` of a record degenerating in the unify under way: in both children's lists, freed by neither.
+const DYING: u32 = u32::MAX - 2;
 
 /// Up to this many triangles around an operation, coincident ones are looked for by comparing every
 /// pair; more (rare: high-valence nodes of coarse fronts) are sorted.
@@ -48,26 +49,44 @@ const SCAN_LIMIT: usize = 32;
 /// Dirty tracking granularity, in triangles: one bit per 64 triangles (768 bytes of indices).
 const DIRTY_BLOCK: u32 = 64;
 
+/// A live triangle.
+#[derive(Clone, Copy, Debug)]
+struct Record {
+    /// Its corners: the active nodes standing for its input corners (in input winding).
+    corner: [u32; 3],
+    /// The next record around corner `k`'s node.
+    next: [u32; 3],
+    /// Its input corners (leaves), kept here because every operation on the triangle reads them.
+    input: [u32; 3],
+    /// Its draw slot, or `HIDDEN`, `DYING`, `DEAD`.
+    slot: u32,
+}
+
+fn key(mut c: [u32; 3]) -> [u32; 3] {
+    c.sort_unstable();
+    c
+}
+
 /// The live state of one view of a [`Hierarchy`].
+#[derive(Clone)]
 pub struct Front {
     state: Vec<u8>,
-    /// First live triangle around each active node.
-    head: Vec<u32>,
     /// Position of each active node in `active`.
     front_index: Vec<u32>,
-    /// The active nodes, in no particular order.
+    /// The active nodes, in no particular order, and the first record around each.
     active: Vec<u32>,
-    /// Current corners of each triangle: exact while it is live, otherwise ancestors of its input
-    /// corners that [`Front::find_active`] starts from.
-    corner: Vec<[u32; 3]>,
-    next: Vec<[u32; 3]>,
-    /// Draw slot of each triangle, or `HIDDEN` / `DEAD`.
-    slot: Vec<u32>,
-    /// Drawn triangles as node ids, packed.
+    active_head: Vec<u32>,
+    records: Vec<Record>,
+    free_records: Vec<u32>,
+    /// Drawn triangles as node ids, packed, and the record behind each.
     indices: Vec<[u32; 3]>,
-    slot_triangle: Vec<u32>,
+    slot_record: Vec<u32>,
     dirty: Vec<u64>,
     group: Vec<([u32; 3], u32)>,
+    dying: Vec<u32>,
+    /// When set, every operation is appended here (`u` for `vsplit(u)`, `!p` for `vunify(p)`), so
+    /// that a run can be replayed without the view tests (benchmarks time the operations alone).
+    pub log: Option<Vec<u32>>,
     pub splits: u64,
     pub unifies: u64,
 }
@@ -76,7 +95,6 @@ impl Front {
     /// The coarsest front: the root alone, no triangle.
     pub fn new(h: &Hierarchy) -> Front {
         let nodes = h.node_count() as usize;
-        let triangles = h.triangles.len();
         let root = h.root();
         let mut state = vec![BELOW; nodes];
         state[root as usize] = ACTIVE;
@@ -84,16 +102,17 @@ impl Front {
         front_index[root as usize] = 0;
         Front {
             state,
-            head: vec![NIL; nodes],
             front_index,
             active: vec![root],
-            corner: h.triangles.clone(),
-            next: vec![[NIL; 3]; triangles],
-            slot: vec![DEAD; triangles],
+            active_head: vec![NIL],
+            records: Vec::new(),
+            free_records: Vec::new(),
             indices: Vec::new(),
-            slot_triangle: Vec::new(),
+            slot_record: Vec::new(),
             dirty: Vec::new(),
             group: Vec::new(),
+            dying: Vec::new(),
+            log: None,
             splits: 0,
             unifies: 0,
         }
@@ -115,6 +134,13 @@ impl Front {
     /// The drawn triangles, as node ids (vertex indices into the node arrays).
     pub fn indices(&self) -> &[[u32; 3]] {
         &self.indices
+    }
+
+    /// The input triangle (leaf corners) behind each drawn one.
+    pub fn drawn_input_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
+        self.slot_record
+            .iter()
+            .map(|&r| self.records[r as usize].input)
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -159,52 +185,58 @@ impl Front {
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         self.state.capacity()
-            + self.head.capacity() * 4
             + self.front_index.capacity() * 4
             + self.active.capacity() * 4
-            + self.corner.capacity() * size_of::<[u32; 3]>()
-            + self.next.capacity() * size_of::<[u32; 3]>()
-            + self.slot.capacity() * 4
+            + self.active_head.capacity() * 4
+            + self.records.capacity() * size_of::<Record>()
+            + self.free_records.capacity() * 4
             + self.indices.capacity() * size_of::<[u32; 3]>()
-            + self.slot_triangle.capacity() * 4
+            + self.slot_record.capacity() * 4
             + self.dirty.capacity() * 8
+            + self.group.capacity() * size_of::<([u32; 3], u32)>()
     }
 
     fn activate(&mut self, u: u32) {
         self.state[u as usize] = ACTIVE;
         self.front_index[u as usize] = self.active.len() as u32;
         self.active.push(u);
+        self.active_head.push(NIL);
     }
 
-    fn deactivate(&mut self, u: u32, to: u8) {
+    /// Takes `u` off the front; returns the first record around it.
+    fn deactivate(&mut self, u: u32, to: u8) -> u32 {
         self.state[u as usize] = to;
         let i = self.front_index[u as usize] as usize;
-        let last = self.active.pop().expect("an active node is on the front");
-        if last != u {
-            self.active[i] = last;
-            self.front_index[last as usize] = i as u32;
+        let head = self.active_head.swap_remove(i);
+        self.active.swap_remove(i);
+        if let Some(&moved) = self.active.get(i) {
+            self.front_index[moved as usize] = i as u32;
         }
         self.front_index[u as usize] = NIL;
+        head
     }
 
-    /// The corner of live triangle `t` at node `u`.
+    /// The corner of record `r` at node `u`.
     #[inline]
-    fn corner_at(&self, t: u32, u: u32) -> usize {
-        let c = self.corner[t as usize];
-        debug_assert!(c.contains(&u), "triangle {t} {c:?} is not around {u}");
+    fn corner_at(&self, r: u32, u: u32) -> usize {
+        let c = self.records[r as usize].corner;
+        debug_assert!(c.contains(&u), "record {r} {c:?} is not around {u}");
         (c[1] == u) as usize + 2 * (c[2] == u) as usize
     }
 
     #[inline]
-    fn push_around(&mut self, u: u32, t: u32, k: usize) {
-        self.next[t as usize][k] = self.head[u as usize];
-        self.head[u as usize] = t;
+    fn push_around(&mut self, u: u32, r: u32, k: usize) {
+        let head = &mut self.active_head[self.front_index[u as usize] as usize];
+        self.records[r as usize].next[k] = *head;
+        *head = r;
     }
 
-    /// The active node standing for `leaf`, starting from `from`, an ancestor of it (or itself).
-    fn find_active(&self, h: &Hierarchy, from: u32, leaf: u32) -> u32 {
-        let mut w = from;
-        while self.state[w as usize] == BELOW {
+    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`: up from
+    /// `u` to an ancestor holding the leaf, then down through split nodes. Both walks are short for
+    /// the leaves an operation meets, which are near `u` in the mesh and so in the tree.
+    fn find_active_outside(&self, h: &Hierarchy, u: u32, leaf: u32) -> u32 {
+        let mut w = h.parent[u as usize];
+        while !h.contains(w, leaf) {
             w = h.parent[w as usize];
         }
         while self.state[w as usize] == SPLIT {
@@ -215,7 +247,24 @@ impl Front {
 
     /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.
     pub fn representative(&self, h: &Hierarchy, leaf: u32) -> u32 {
-        self.find_active(h, leaf, leaf)
+        let mut w = leaf;
+        while self.state[w as usize] == BELOW {
+            w = h.parent[w as usize];
+        }
+        w
+    }
+
+    fn new_record(&mut self, record: Record) -> u32 {
+        match self.free_records.pop() {
+            Some(r) => {
+                self.records[r as usize] = record;
+                r
+            }
+            None => {
+                self.records.push(record);
+                self.records.len() as u32 - 1
+            }
+        }
     }
 
     /// `vsplit(u)`: `u` leaves the front for its two children.
@@ -225,41 +274,55 @@ impl Front {
             "split of {u}, which is not an active internal node"
         );
         let [c0, c1] = h.children(u);
-        self.deactivate(u, SPLIT);
+        let mut r = self.deactivate(u, SPLIT);
         self.activate(c0);
         self.activate(c1);
         let mut group = std::mem::take(&mut self.group);
         group.clear();
         // The triangles around u go to the child holding their input corner.
-        let mut t = std::mem::replace(&mut self.head[u as usize], NIL);
-        while t != NIL {
-            let k = self.corner_at(t, u);
-            let next = self.next[t as usize][k];
-            let c = h.child_toward(u, h.triangles[t as usize][k]);
-            self.corner[t as usize][k] = c;
-            self.push_around(c, t, k);
-            group.push((key(self.corner[t as usize]), t));
-            t = next;
+        while r != NIL {
+            let k = self.corner_at(r, u);
+            let rec = &mut self.records[r as usize];
+            let next = rec.next[k];
+            if rec.slot == DEAD {
+                self.free_records.push(r);
+                r = next;
+                continue;
+            }
+            let c = h.child_toward(u, rec.input[k]);
+            rec.corner[k] = c;
+            let corners = rec.corner;
+            self.push_around(c, r, k);
+            group.push((key(corners), r));
+            r = next;
         }
         // The triangles whose corners u kept together appear (corner 2 lies outside u's subtree).
         for t in h.appearing(u) {
             let input = h.triangles[t as usize];
-            let outside = self.find_active(h, self.corner[t as usize][2], input[2]);
-            let c = [
+            let corner = [
                 h.child_toward(u, input[0]),
                 h.child_toward(u, input[1]),
-                outside,
+                self.find_active_outside(h, u, input[2]),
             ];
-            debug_assert!(c[0] != c[1] && c[1] != c[2] && c[0] != c[2]);
-            self.corner[t as usize] = c;
-            for (k, &v) in c.iter().enumerate() {
-                self.push_around(v, t, k);
+            debug_assert!(
+                corner[0] != corner[1] && corner[1] != corner[2] && corner[0] != corner[2]
+            );
+            let r = self.new_record(Record {
+                corner,
+                next: [NIL; 3],
+                input,
+                slot: HIDDEN,
+            });
+            for (k, &v) in corner.iter().enumerate() {
+                self.push_around(v, r, k);
             }
-            self.slot[t as usize] = HIDDEN;
-            group.push((key(c), t));
+            group.push((key(corner), r));
         }
         self.settle(group);
         self.splits += 1;
+        if let Some(log) = &mut self.log {
+            log.push(u);
+        }
     }
 
     /// `vunify(p)`: the two children of `p` leave the front for `p`.
@@ -269,56 +332,44 @@ impl Front {
             "unify of {p}, whose children are not both active"
         );
         let [c0, c1] = h.children(p);
-        self.deactivate(c0, BELOW);
-        self.deactivate(c1, BELOW);
+        let heads = [self.deactivate(c0, BELOW), self.deactivate(c1, BELOW)];
         self.activate(p);
         let mut group = std::mem::take(&mut self.group);
         group.clear();
-        for (c, other) in [(c0, c1), (c1, c0)] {
-            let mut t = std::mem::replace(&mut self.head[c as usize], NIL);
-            while t != NIL {
-                let k = self.corner_at(t, c);
-                let next = self.next[t as usize][k];
-                if self.slot[t as usize] == DEAD {
-                    // Died on the first child's walk; its links there are still readable.
-                } else if self.corner[t as usize].contains(&other) {
-                    // Both children were corners: the triangle degenerates. Its corners stay as they
-                    // are (ancestors of the input corners) for `find_active` when it reappears.
-                    let c3 = self.corner[t as usize];
-                    let w = c3[3 - k - self.corner_at(t, other)];
-                    self.unlink(w, t);
-                    self.release(t);
-                    self.slot[t as usize] = DEAD;
+        for (i, (c, other)) in [(c0, c1), (c1, c0)].into_iter().enumerate() {
+            let mut r = heads[i];
+            while r != NIL {
+                let k = self.corner_at(r, c);
+                let rec = self.records[r as usize];
+                let next = rec.next[k];
+                if rec.slot == DEAD {
+                    // Degenerated in an earlier unify, and only this list still held it.
+                    self.free_records.push(r);
+                } else if rec.slot == DYING {
+                    // Marked by the first child's walk.
+                } else if rec.corner.contains(&other) {
+                    // Both children were corners: the triangle degenerates. The third corner's list
+                    // keeps it until that list is next walked.
+                    self.release(r);
+                    self.records[r as usize].slot = DYING;
+                    self.dying.push(r);
                 } else {
-                    self.corner[t as usize][k] = p;
-                    self.push_around(p, t, k);
-                    group.push((key(self.corner[t as usize]), t));
+                    self.records[r as usize].corner[k] = p;
+                    self.push_around(p, r, k);
+                    let mut corners = rec.corner;
+                    corners[k] = p;
+                    group.push((key(corners), r));
                 }
-                t = next;
+                r = next;
             }
+        }
+        for r in self.dying.drain(..) {
+            self.records[r as usize].slot = DEAD;
         }
         self.settle(group);
         self.unifies += 1;
-    }
-
-    /// Removes `t` from the list around `w` (a walk of that list: a few triangles).
-    fn unlink(&mut self, w: u32, t: u32) {
-        let kt = self.corner_at(t, w);
-        let after = self.next[t as usize][kt];
-        let mut x = self.head[w as usize];
-        if x == t {
-            self.head[w as usize] = after;
-            return;
-        }
-        loop {
-            let k = self.corner_at(x, w);
-            let nx = self.next[x as usize][k];
-            if nx == t {
-                self.next[x as usize][k] = after;
-                return;
-            }
-            debug_assert!(nx != NIL, "triangle {t} is not in the list of {w}");
-            x = nx;
+        if let Some(log) = &mut self.log {
+            log.push(!p);
         }
     }
 
@@ -335,8 +386,8 @@ impl Front {
                 .enumerate()
                 .any(|(i, a)| group[..i].iter().any(|b| b.0 == a.0));
         if !coincident {
-            for &(_, t) in &group {
-                self.draw(t);
+            for &(_, r) in &group {
+                self.draw(r);
             }
             self.group = group;
             return;
@@ -352,13 +403,12 @@ impl Front {
             let run = &group[i..j];
             let keeper = run
                 .iter()
-                .find(|&&(_, t)| self.slot[t as usize] < HIDDEN)
+                .find(|&&(_, r)| self.records[r as usize].slot != HIDDEN)
                 .unwrap_or(&run[0])
                 .1;
-            for &(_, t) in run {
-                if t != keeper {
-                    self.release(t);
-                    self.slot[t as usize] = HIDDEN;
+            for &(_, r) in run {
+                if r != keeper {
+                    self.release(r);
                 }
             }
             self.draw(keeper);
@@ -367,36 +417,37 @@ impl Front {
         self.group = group;
     }
 
-    /// Gives live triangle `t` a slot if it has none and writes its corners there.
-    fn draw(&mut self, t: u32) {
-        let mut s = self.slot[t as usize];
-        if s >= HIDDEN {
-            s = self.indices.len() as u32;
+    /// Gives record `r` a slot if it has none and writes its corners there.
+    fn draw(&mut self, r: u32) {
+        let rec = &mut self.records[r as usize];
+        if rec.slot == HIDDEN {
+            rec.slot = self.indices.len() as u32;
             self.indices.push([0; 3]);
-            self.slot_triangle.push(t);
-            self.slot[t as usize] = s;
+            self.slot_record.push(r);
         }
-        self.indices[s as usize] = self.corner[t as usize];
+        let s = rec.slot;
+        self.indices[s as usize] = rec.corner;
         self.mark(s);
     }
 
-    /// Takes `t` out of the drawn list (if it is there), moving the last drawn triangle into its slot.
-    fn release(&mut self, t: u32) {
-        let s = self.slot[t as usize];
-        if s >= HIDDEN {
+    /// Takes record `r` out of the drawn list (if it is there), moving the last drawn triangle into
+    /// its slot.
+    fn release(&mut self, r: u32) {
+        let s = self.records[r as usize].slot;
+        if s >= DYING {
             return;
         }
+        self.records[r as usize].slot = HIDDEN;
         let last = self.indices.len() as u32 - 1;
         if s != last {
-            let moved = self.slot_triangle[last as usize];
+            let moved = self.slot_record[last as usize];
             self.indices[s as usize] = self.indices[last as usize];
-            self.slot_triangle[s as usize] = moved;
-            self.slot[moved as usize] = s;
+            self.slot_record[s as usize] = moved;
+            self.records[moved as usize].slot = s;
             self.mark(s);
         }
         self.indices.pop();
-        self.slot_triangle.pop();
-        self.slot[t as usize] = HIDDEN;
+        self.slot_record.pop();
     }
 
     fn mark(&mut self, slot: u32) {
@@ -406,6 +457,17 @@ impl Front {
             self.dirty.resize(word + 1, 0);
         }
         self.dirty[word] |= 1 << (block % 64);
+    }
+
+    /// Applies a [`Front::log`] recorded from the same starting front.
+    pub fn replay(&mut self, h: &Hierarchy, log: &[u32]) {
+        for &op in log {
+            if op < h.node_count() {
+                self.split(h, op);
+            } else {
+                self.unify(h, !op);
+            }
+        }
     }
 
     /// Splits until every active node is a leaf: the input mesh.

@@ -26,7 +26,6 @@ pub struct Hierarchy {
     pub normal: Vec<[i16; 2]>,
     /// Linear RGB of every node as RGBA8; empty when the model has no colours.
     pub color: Vec<[u8; 4]>,
-    pub internal_children: Vec<[u32; 2]>,
     /// Object-space error (see [`crate::vtree::Node::error`]); never less than a child's.
     pub internal_error: Vec<f32>,
     /// Radius of a sphere about the node's *position* holding its subtree's surface: one point per
@@ -36,15 +35,16 @@ pub struct Hierarchy {
     /// octahedral-encoded, and the sine of the half-angle widened by the encoding's error; a sine of
     /// at least 1 when the cone spans a hemisphere or more (never wholly back-facing).
     pub internal_cone: Vec<([i16; 2], f32)>,
-    /// The first leaf of the second child: leaves below it in the subtree belong to the first.
-    pub internal_mid: Vec<u32>,
+    /// The node's leaves `[lo, hi)` and `mid`, the first leaf of its second child. Pre-order numbering
+    /// makes the children follow from these: the first is leaf `lo` if it holds one leaf, else node
+    /// `u + 1`; the second is leaf `mid` if it holds one leaf, else node `u + (mid − lo)`, after the
+    /// first child's `mid − lo − 1` internal nodes.
+    pub internal_range: Vec<[u32; 3]>,
     /// Every input triangle (leaf corners, input winding) grouped by `d(t)`, cyclically rotated so
     /// that corner 2 lies outside the subtree of `d(t)` and corners 0 and 1 inside it.
     pub triangles: Vec<[u32; 3]>,
     /// `triangles[appear_offsets[k]..appear_offsets[k + 1]]` appear when internal node `k` splits.
     pub appear_offsets: Vec<u32>,
-    /// The input vertex of each leaf.
-    pub input_vertex: Vec<u32>,
     /// The input's faces wind clockwise seen from outside (negative signed volume, like the horse
     /// model): cones were flipped so that the normal test still culls the far side.
     pub inward: bool,
@@ -110,6 +110,12 @@ impl Hierarchy {
         let internal: Vec<&crate::vtree::Node> = (n..count as u32).map(node).collect();
         let internal_children: Vec<[u32; 2]> =
             internal.iter().map(|x| x.children.map(renumber)).collect();
+        debug_assert!(
+            internal_children
+                .iter()
+                .enumerate()
+                .all(|(k, c)| c[0] < n || c[0] == n + k as u32 + 1)
+        );
         let internal_error = internal.iter().map(|x| x.error).collect();
         let internal_radius = internal
             .iter()
@@ -131,9 +137,13 @@ impl Hierarchy {
             };
             (lo[k], hi[k]) = (first, end);
         }
-        let internal_mid: Vec<u32> = internal_children
+        let internal_range: Vec<[u32; 3]> = internal_children
             .iter()
-            .map(|&[_, c1]| if c1 < n { c1 } else { lo[(c1 - n) as usize] })
+            .enumerate()
+            .map(|(k, &[_, c1])| {
+                let mid = if c1 < n { c1 } else { lo[(c1 - n) as usize] };
+                [lo[k], mid, hi[k]]
+            })
             .collect();
         let contains = |u: u32, leaf: u32| {
             let k = (u - n) as usize;
@@ -205,14 +215,12 @@ impl Hierarchy {
             parent,
             normal,
             color,
-            internal_children,
             internal_error,
             internal_radius,
             internal_cone,
-            internal_mid,
+            internal_range,
             triangles,
             appear_offsets,
-            input_vertex: old_of[..n as usize].to_vec(),
             inward,
             diagonal: tree.diagonal(),
         }
@@ -235,8 +243,19 @@ impl Hierarchy {
         u < self.leaf_count
     }
 
+    #[inline]
     pub fn children(&self, u: u32) -> [u32; 2] {
-        self.internal_children[(u - self.leaf_count) as usize]
+        let [lo, mid, hi] = self.internal_range[(u - self.leaf_count) as usize];
+        let first = if mid - lo == 1 { lo } else { u + 1 };
+        let second = if hi - mid == 1 { mid } else { u + (mid - lo) };
+        [first, second]
+    }
+
+    /// Does internal node `u`'s subtree hold `leaf`?
+    #[inline]
+    pub fn contains(&self, u: u32, leaf: u32) -> bool {
+        let [lo, _, hi] = self.internal_range[(u - self.leaf_count) as usize];
+        (lo..hi).contains(&leaf)
     }
 
     /// Object-space error of a node; 0 for a leaf.
@@ -266,9 +285,14 @@ impl Hierarchy {
     /// Which child of internal node `u` holds `leaf` (which must lie in `u`'s subtree).
     #[inline]
     pub fn child_toward(&self, u: u32, leaf: u32) -> u32 {
-        let k = (u - self.leaf_count) as usize;
-        let side = (leaf >= self.internal_mid[k]) as usize;
-        self.internal_children[k][side]
+        let [lo, mid, hi] = self.internal_range[(u - self.leaf_count) as usize];
+        if leaf < mid {
+            if mid - lo == 1 { lo } else { u + 1 }
+        } else if hi - mid == 1 {
+            mid
+        } else {
+            u + (mid - lo)
+        }
     }
 
     /// Heap bytes of the arrays above.
@@ -278,14 +302,29 @@ impl Hierarchy {
             + size_of_val(&self.parent[..])
             + size_of_val(&self.normal[..])
             + size_of_val(&self.color[..])
-            + size_of_val(&self.internal_children[..])
             + size_of_val(&self.internal_error[..])
             + size_of_val(&self.internal_radius[..])
             + size_of_val(&self.internal_cone[..])
-            + size_of_val(&self.internal_mid[..])
+            + size_of_val(&self.internal_range[..])
             + size_of_val(&self.triangles[..])
             + size_of_val(&self.appear_offsets[..])
-            + size_of_val(&self.input_vertex[..])
+    }
+
+    /// The input vertex of each leaf (the renumbering is depth-first; see [`Hierarchy`]).
+    pub fn input_vertices(tree: &VertexTree) -> Vec<u32> {
+        let n = tree.leaf_count;
+        let mut out = Vec::with_capacity(n as usize);
+        let mut stack = vec![tree.root()];
+        while let Some(u) = stack.pop() {
+            if u < n {
+                out.push(u);
+            } else {
+                let [c0, c1] = tree.nodes[u as usize].children;
+                stack.push(c1);
+                stack.push(c0);
+            }
+        }
+        out
     }
 
     /// Every node, parents before children: internal nodes in pre-order, then the leaves.

@@ -108,30 +108,18 @@ fn same_winding(a: [u32; 3], b: [u32; 3]) -> bool {
     (0..3).any(|r| [a[r], a[(r + 1) % 3], a[(r + 2) % 3]] == b)
 }
 
-/// Drawn triangles whose normal points against the normal of an input triangle they stand for
-/// (a foldover), out of all drawn ones.
+/// Drawn triangles whose normal points against the normal of the input triangle behind them (a
+/// foldover), and the number drawn.
 pub fn foldovers(h: &Hierarchy, front: &Front) -> (usize, usize) {
-    let mut by_key: HashMap<[u32; 3], [u32; 3]> = HashMap::new();
-    for t in &h.triangles {
-        let c = t.map(|v| front.representative(h, v));
-        by_key.entry(sorted(c)).or_insert(*t);
-    }
     let normal = |c: [u32; 3]| {
         let [a, b, d] = c.map(|v| h.position[v as usize]);
         (b - a).cross(d - a)
     };
-    let mut folded = 0;
-    for &c in front.indices() {
-        let input = by_key[&sorted(c)];
-        // Compare with the input triangle in the drawn triangle's winding.
-        let input = if same_winding(input.map(|v| front.representative(h, v)), c) {
-            input
-        } else {
-            [input[0], input[2], input[1]]
-        };
-        if normal(c).dot(normal(input)) < 0.0 {
-            folded += 1;
-        }
-    }
+    let folded = front
+        .indices()
+        .iter()
+        .zip(front.drawn_input_triangles())
+        .filter(|&(&c, input)| normal(c).dot(normal(input)) < 0.0)
+        .count();
     (folded, front.indices().len())
 }
