@@ -1,25 +1,39 @@
-//! Profiling aid: split the bunny's whole tree and unify it back, many times.
+//! Profiling aid: the dragon's orbit at 1920x1080, τ = 1 px, recorded and replayed many times, so that
+//! `perf` sees the operations alone. `cargo run --release --example ops_profile -- TREE.vtree`
+use glam::Vec3;
 use std::time::Instant;
-use vunify::mesh::CleanOptions;
-use vunify::refine::{Front, Hierarchy};
-use vunify::vtree::{self, BuildOptions};
+use vunify::refine::{Camera, Hierarchy, Refiner, Settings};
 
 fn main() {
-    let path = std::env::args()
-        .nth(1)
-        .unwrap_or("../shared/models/stanford-bunny.obj".into());
-    let (mesh, _) = vunify::mesh::load(path.as_ref(), &CleanOptions::default()).unwrap();
-    let (tree, _) = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap();
+    let path = std::env::args().nth(1).unwrap_or("/tmp/dragon.vtree".into());
+    let tree = vunify::vtree::read(path.as_ref()).unwrap();
     let h = Hierarchy::new(&tree);
-    let mut f = Front::new(&h);
-    let t0 = Instant::now();
-    for _ in 0..20 {
-        f.refine_all(&h);
-        f.coarsen_all(&h);
+    let leaves = &h.position[..h.leaf_count as usize];
+    let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+    let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+    let (c, r) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+    let cameras: Vec<Camera> = (0..600)
+        .map(|i| {
+            let a = i as f32 / 600.0 * std::f32::consts::TAU;
+            let eye = c + Vec3::new(a.cos(), 0.35, a.sin()) * r * 2.5;
+            Camera::looking_at(eye, c, Vec3::Y, 50f32.to_radians(), [1920, 1080], r * 1e-3, r * 100.0)
+        })
+        .collect();
+    let mut refiner = Refiner::new(&h, Settings::default());
+    refiner.update(&h, &cameras[0]);
+    let start = refiner.front.clone();
+    refiner.front.log = Some(Vec::new());
+    for cam in &cameras[1..] {
+        refiner.update(&h, cam);
     }
-    let ops = f.splits + f.unifies;
-    println!(
-        "{:.2} M ops/s",
-        ops as f64 / t0.elapsed().as_secs_f64() / 1e6
-    );
+    let log = refiner.front.log.take().unwrap();
+    let rounds: usize = std::env::var("ROUNDS").ok().and_then(|r| r.parse().ok()).unwrap_or(40);
+    let mut secs = 0.0;
+    for _ in 0..rounds {
+        let mut f = start.clone();
+        let t0 = Instant::now();
+        f.replay(&h, &log);
+        secs += t0.elapsed().as_secs_f64();
+    }
+    println!("{} ops x {rounds}: {:.2} M ops/s", log.len(), (log.len() * rounds) as f64 / secs / 1e6);
 }
