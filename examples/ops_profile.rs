@@ -5,7 +5,9 @@ use std::time::Instant;
 use vunify::refine::{Camera, Hierarchy, Refiner, Settings};
 
 fn main() {
-    let path = std::env::args().nth(1).unwrap_or("/tmp/dragon.vtree".into());
+    let path = std::env::args()
+        .nth(1)
+        .unwrap_or("/tmp/dragon.vtree".into());
     let tree = vunify::vtree::read(path.as_ref()).unwrap();
     let h = Hierarchy::new(&tree);
     let leaves = &h.position[..h.leaf_count as usize];
@@ -16,7 +18,15 @@ fn main() {
         .map(|i| {
             let a = i as f32 / 600.0 * std::f32::consts::TAU;
             let eye = c + Vec3::new(a.cos(), 0.35, a.sin()) * r * 2.5;
-            Camera::looking_at(eye, c, Vec3::Y, 50f32.to_radians(), [1920, 1080], r * 1e-3, r * 100.0)
+            Camera::looking_at(
+                eye,
+                c,
+                Vec3::Y,
+                50f32.to_radians(),
+                [1920, 1080],
+                r * 1e-3,
+                r * 100.0,
+            )
         })
         .collect();
     let mut refiner = Refiner::new(&h, Settings::default());
@@ -27,7 +37,10 @@ fn main() {
         refiner.update(&h, cam);
     }
     let log = refiner.front.log.take().unwrap();
-    let rounds: usize = std::env::var("ROUNDS").ok().and_then(|r| r.parse().ok()).unwrap_or(40);
+    let rounds: usize = std::env::var("ROUNDS")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(40);
     let mut secs = 0.0;
     for _ in 0..rounds {
         let mut f = start.clone();
@@ -35,5 +48,9 @@ fn main() {
         f.replay(&h, &log);
         secs += t0.elapsed().as_secs_f64();
     }
-    println!("{} ops x {rounds}: {:.2} M ops/s", log.len(), (log.len() * rounds) as f64 / secs / 1e6);
+    println!(
+        "{} ops x {rounds}: {:.2} M ops/s",
+        log.len(),
+        (log.len() * rounds) as f64 / secs / 1e6
+    );
 }

@@ -8,6 +8,9 @@
 pub mod export;
 pub mod measure;
 pub mod mesh;
+pub mod path;
 pub mod refine;
+#[cfg(feature = "render")]
+pub mod render;
 pub mod simplify;
 pub mod vtree;

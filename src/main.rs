@@ -48,6 +48,12 @@ enum Command {
     },
     /// Take a static level of detail from a .vtree and write it as OBJ.
     Extract(ExtractArgs),
+    /// Write a camera path (JSON) around a model: an orbit, a fly-in (far to near, seed 001 Fig. 6) or
+    /// a flythrough (close past and through the model).
+    Path(PathArgs),
+    /// Render a camera path over a model headless (PNG frames, stats.csv, a contact sheet); with
+    /// --compare, measure the LOD against the full mesh frame by frame.
+    Render(RenderArgs),
     /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling).
     Measure {
         /// The reference mesh; distances are fractions of its bounding-box diagonal.
@@ -128,6 +134,88 @@ struct ExtractArgs {
     output: PathBuf,
 }
 
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum PathKind {
+    Orbit,
+    FlyIn,
+    Flythrough,
+}
+
+#[derive(Args)]
+struct PathArgs {
+    /// What kind of path.
+    #[arg(long, value_enum, default_value_t = PathKind::Orbit)]
+    kind: PathKind,
+    /// The model (.vtree, or a mesh: .obj, .ply, .off, optionally .xz) whose bounds the path follows.
+    model: PathBuf,
+    /// Length of the path in seconds.
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f32,
+    /// Output JSON file (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// The model: a .vtree opens at once; a mesh (.obj, .ply, .off, optionally .xz) is built first.
+    model: PathBuf,
+    /// Camera path JSON (see `vunify path`); default: an orbit of the model.
+    #[arg(long)]
+    path: Option<PathBuf>,
+    /// Output directory for frames, stats.csv and the contact sheet.
+    #[arg(long, default_value = "out/render")]
+    out: PathBuf,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x768", value_parser = parse_size)]
+    size: [u32; 2],
+    /// Screen-space error tolerance τ in pixels.
+    #[arg(long, default_value_t = 1.0, conflicts_with = "budget")]
+    tau: f32,
+    /// Triangle budget: the best screen-space error under this many triangles (instead of --tau).
+    #[arg(long)]
+    budget: Option<u32>,
+    /// Write every K-th frame as PNG (statistics cover every frame).
+    #[arg(long, default_value_t = 10)]
+    every: usize,
+    /// Frames per second of path time.
+    #[arg(long, default_value_t = 30.0)]
+    fps: f32,
+    /// Also render the full-resolution mesh each frame: PSNR and share of differing pixels per frame,
+    /// and the worst frame side by side with its difference.
+    #[arg(long)]
+    compare: bool,
+    /// Draw triangle edges over the surface.
+    #[arg(long)]
+    wireframe: bool,
+    /// Surface colours: auto (vertex colours if any, else grey), shaded, depth (tree depth) or error
+    /// (projected error: blue 0, green τ, red 2τ).
+    #[arg(long, value_enum, default_value = "auto")]
+    color_by: ColorChoice,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ColorChoice {
+    Auto,
+    Shaded,
+    Depth,
+    Error,
+}
+
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&x| (1..=16384).contains(&x))
+            .ok_or_else(|| format!("{v:?} is not a size between 1 and 16384"))
+    };
+    Ok([parse(w)?, parse(h)?])
+}
+
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -135,6 +223,8 @@ fn main() {
         Some(Command::Build(args)) => build(args),
         Some(Command::Info { file, check, json }) => info(&file, check, json),
         Some(Command::Extract(args)) => extract(args),
+        Some(Command::Path(args)) => path(args),
+        Some(Command::Render(args)) => render(args),
         Some(Command::Measure {
             original,
             simplified,
@@ -401,4 +491,169 @@ fn measure(original: &Path, simplified: &Path, samples: usize, json: bool) -> Re
         );
     }
     Ok(())
+}
+
+/// A model's tree: read from a .vtree, or built from a mesh (with a progress bar).
+fn load_tree(model: &Path) -> Result<vtree::VertexTree> {
+    let is_vtree = model
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vtree"));
+    if is_vtree {
+        return Ok(vtree::read(model)?);
+    }
+    let (mesh, _) = mesh::load(model, &CleanOptions::default())?;
+    let bar = indicatif::ProgressBar::new(mesh.vertex_count().saturating_sub(1) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("building the tree [{bar:40}] {pos}/{len} merges")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let (tree, _) = vtree::build(&mesh, &BuildOptions::default(), &mut |done, _| {
+        bar.set_position(done as u64)
+    })?;
+    bar.finish_and_clear();
+    Ok(tree)
+}
+
+/// Centre and radius of the box around a tree's leaves.
+fn bounds(tree: &vtree::VertexTree) -> (glam::Vec3, f32) {
+    let leaves = &tree.nodes[..tree.leaf_count as usize];
+    let lo = leaves
+        .iter()
+        .fold(glam::Vec3::INFINITY, |a, n| a.min(n.position()));
+    let hi = leaves
+        .iter()
+        .fold(glam::Vec3::NEG_INFINITY, |a, n| a.max(n.position()));
+    (
+        (lo + hi) * 0.5,
+        ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),
+    )
+}
+
+fn camera_path(kind: PathKind, tree: &vtree::VertexTree, seconds: f32) -> vunify::path::CameraPath {
+    use vunify::path::CameraPath;
+    let (center, radius) = bounds(tree);
+    match kind {
+        PathKind::Orbit => CameraPath::orbit(center, radius, seconds),
+        PathKind::FlyIn => CameraPath::fly_in(center, radius, seconds),
+        PathKind::Flythrough => CameraPath::flythrough(center, radius, seconds),
+    }
+}
+
+fn path(args: PathArgs) -> Result<()> {
+    if !(args.seconds > 0.0 && args.seconds.is_finite()) {
+        bail!("--seconds must be a positive number, got {}", args.seconds);
+    }
+    let tree = load_tree(&args.model)?;
+    let path = camera_path(args.kind, &tree, args.seconds);
+    vunify::export::write_atomic(&args.output, path.to_json().as_bytes())
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    println!(
+        "wrote {}: {} keyframes over {} s",
+        args.output.display(),
+        path.keyframes.len(),
+        args.seconds
+    );
+    Ok(())
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    use vunify::refine::{Hierarchy, Mode, Settings};
+    use vunify::render::{ColorBy, DrawOptions, Gpu, job};
+    if !(args.tau > 0.0 && args.tau.is_finite()) {
+        bail!(
+            "--tau must be a positive number of pixels, got {}",
+            args.tau
+        );
+    }
+    if !(args.fps > 0.0 && args.fps.is_finite()) {
+        bail!("--fps must be positive, got {}", args.fps);
+    }
+    let tree = load_tree(&args.model)?;
+    let path = match &args.path {
+        Some(p) => vunify::path::CameraPath::load(p)?,
+        None => camera_path(PathKind::Orbit, &tree, 10.0),
+    };
+    let gpu = Gpu::headless()?;
+    let h = Hierarchy::new(&tree);
+    let settings = Settings {
+        tolerance_px: args.tau,
+        mode: args.budget.map_or(Mode::Tolerance, Mode::Budget),
+        ..Default::default()
+    };
+    let draw = DrawOptions {
+        color_by: match args.color_by {
+            ColorChoice::Auto => ColorBy::Auto,
+            ColorChoice::Shaded => ColorBy::Shaded,
+            ColorChoice::Depth => ColorBy::Depth,
+            ColorChoice::Error => ColorBy::Error,
+        },
+        wireframe: args.wireframe,
+        tolerance_px: args.tau,
+        ..Default::default()
+    };
+    let job = job::RenderJob {
+        size: args.size,
+        settings,
+        draw,
+        fps: args.fps,
+        every: args.every.max(1),
+        compare: args.compare,
+        out_dir: args.out.clone(),
+    };
+    println!(
+        "rendering {} on {} at {}x{}",
+        args.model.display(),
+        gpu.adapter_name(),
+        args.size[0],
+        args.size[1]
+    );
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("frames [{bar:40}] {pos}/{len} ({eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let summary = job::render_path(&gpu, &h, &path, &job, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    print_summary(&summary, &args.out);
+    Ok(())
+}
+
+fn print_summary(s: &vunify::render::job::Summary, out: &Path) {
+    println!("frames     {} on {}", s.frames, s.adapter);
+    println!(
+        "triangles  mean {:.0}, max {}{}",
+        s.triangles_mean,
+        s.triangles_max,
+        if s.full_triangles > 0 {
+            format!(" (full mesh {})", s.full_triangles)
+        } else {
+            String::new()
+        }
+    );
+    println!(
+        "refine     median {:.3} ms, p95 {:.3} ms; upload {:.0} bytes a frame",
+        s.refine_ms_median, s.refine_ms_p95, s.upload_bytes_mean
+    );
+    if let Some(g) = s.gpu_ms_median {
+        println!("gpu        median {g:.2} ms a frame");
+    }
+    if let (Some(mean), Some(min), Some(d), Some(dmax)) = (
+        s.psnr_db_mean,
+        s.psnr_db_min,
+        s.differing_mean,
+        s.differing_max,
+    ) {
+        println!(
+            "vs full    PSNR mean {mean:.1} dB, worst {min:.1} dB (frame {}); pixels off by > 8/255: mean {:.3} %, max {:.3} %",
+            s.worst_frame.unwrap_or(0),
+            d * 100.0,
+            dmax * 100.0
+        );
+    }
+    println!("wrote      {} files in {}", s.written.len(), out.display());
 }

@@ -122,6 +122,12 @@ impl Refiner {
         &self.vertex_updates
     }
 
+    /// The front (for its indices and dirty ranges) and this frame's vertex updates, together: what
+    /// a renderer uploads.
+    pub fn output(&mut self) -> (&mut Front, &[(u32, Vec3)]) {
+        (&mut self.front, &self.vertex_updates)
+    }
+
     /// Where node `u` is drawn now.
     pub fn displayed(&self, h: &Hierarchy, u: u32) -> Vec3 {
         match self.morphs.get(&u) {

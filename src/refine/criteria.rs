@@ -109,6 +109,11 @@ impl View {
         }
     }
 
+    /// Pixels covered by one unit of length facing the camera at distance 1.
+    pub fn px_per_unit(&self) -> f32 {
+        self.px_per_unit
+    }
+
     /// Frustum test: is the sphere wholly outside one plane?
     #[inline]
     pub fn outside(&self, center: Vec3, radius: f32) -> bool {

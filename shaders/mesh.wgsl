@@ -1,0 +1,98 @@
+// The mesh pass: one vertex per tree node (position, octahedral normal, colour, and the node's
+// object-space error and depth for debug colouring); lit shading, vertex colours, or a debug colouring.
+// `Globals` mirrors `vunify::render::gpu_data::Globals` (size asserted there).
+
+struct Globals {
+    clip_from_world: mat4x4<f32>,
+    // xyz: the eye; w: pixels per unit of length at distance 1 (height / (2 tan(fov / 2))).
+    eye: vec4<f32>,
+    // xyz: direction towards the light (world); w: ambient share.
+    light: vec4<f32>,
+    // x: τ in pixels (debug error colouring); y: near plane; zw: unused.
+    params: vec4<f32>,
+    // x: colour mode (0 shaded, 1 vertex colours, 2 tree depth, 3 projected error);
+    // y: flat shading (1) or smooth (0); z: 1 for the wireframe pass; w: unused.
+    modes: vec4<u32>,
+    wire_color: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> g: Globals;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec2<f32>,   // snorm16x2, octahedral; (-1, -1) exactly: unknown
+    @location(2) color: vec4<f32>,    // unorm8x4
+    @location(3) debug: vec2<f32>,    // (object-space error, depth)
+}
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec4<f32>,
+}
+
+fn decode_octahedral(e: vec2<f32>) -> vec3<f32> {
+    if (e.x <= -1.0 && e.y <= -1.0) {
+        return vec3<f32>(0.0);
+    }
+    var v = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
+    let t = max(-v.z, 0.0);
+    v.x = v.x - t * sign(v.x);
+    v.y = v.y - t * sign(v.y);
+    return normalize(v);
+}
+
+// A small perceptual ramp for debug colours: 0 → blue, 0.5 → green, 1 → red.
+fn ramp(x: f32) -> vec3<f32> {
+    let t = clamp(x, 0.0, 1.0);
+    return clamp(vec3<f32>(2.0 * t - 0.5, 1.5 - abs(2.0 * t - 1.0) * 1.5, 1.0 - 2.0 * t), vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
+// Distinct hues for tree depths, repeating every 8 levels.
+fn depth_color(d: f32) -> vec3<f32> {
+    let h = fract(d * 0.381966);
+    let k = vec3<f32>(0.0, 2.0 / 3.0, 1.0 / 3.0);
+    return clamp(abs(fract(vec3<f32>(h) + k) * 6.0 - 3.0) - 1.0, vec3<f32>(0.0), vec3<f32>(1.0)) * 0.75 + 0.2;
+}
+
+@vertex
+fn vs_main(v: VertexIn) -> VertexOut {
+    var out: VertexOut;
+    out.clip = g.clip_from_world * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = decode_octahedral(v.normal);
+    switch g.modes.x {
+        case 1u: { out.color = vec4<f32>(v.color.rgb, 1.0); }
+        case 2u: { out.color = vec4<f32>(depth_color(v.debug.y), 1.0); }
+        case 3u: {
+            let d = max(distance(v.position, g.eye.xyz), g.params.y);
+            let px = v.debug.x * g.eye.w / d;
+            out.color = vec4<f32>(ramp(px / (2.0 * g.params.x)), 1.0);
+        }
+        default: { out.color = vec4<f32>(0.78, 0.76, 0.72, 1.0); }
+    }
+    return out;
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    var n = in.normal;
+    if (g.modes.y == 1u || dot(n, n) < 0.5) {
+        // Flat: the face normal from screen-space derivatives (also where a vertex has no normal).
+        n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+    }
+    // Two-sided: open and inward-wound models are lit from whichever side is seen.
+    let to_eye = normalize(g.eye.xyz - in.world);
+    if (dot(n, to_eye) < 0.0) {
+        n = -n;
+    }
+    let diffuse = max(dot(n, normalize(g.light.xyz)), 0.0);
+    let shade = g.light.w + (1.0 - g.light.w) * diffuse;
+    return vec4<f32>(in.color.rgb * shade, 1.0);
+}
+
+@fragment
+fn fs_wire(in: VertexOut) -> @location(0) vec4<f32> {
+    return g.wire_color;
+}

@@ -1,0 +1,299 @@
+//! Rendering a camera path headless: PNG frames, per-frame statistics, a contact sheet, and (with
+//! `compare`) the image error of the LOD against the full-resolution mesh frame by frame.
+
+use super::RenderError;
+use super::headless::{Gpu, OFFSCREEN_FORMAT, Offscreen};
+use super::image_diff::{self, Comparison};
+use super::renderer::{DrawOptions, Renderer};
+use crate::path::CameraPath;
+use crate::refine::{Camera, Front, Hierarchy, Refiner, Settings};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What to render and where.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    pub size: [u32; 2],
+    pub settings: Settings,
+    pub draw: DrawOptions,
+    /// Frames per second of path time.
+    pub fps: f32,
+    /// Write every k-th frame as PNG (statistics cover every frame).
+    pub every: usize,
+    /// Also render the full mesh each frame and measure the image error.
+    pub compare: bool,
+    pub out_dir: PathBuf,
+}
+
+/// One frame's line of `stats.csv`.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct FrameRecord {
+    pub frame: usize,
+    pub time_s: f32,
+    pub triangles: u32,
+    pub active_vertices: u32,
+    pub splits: u32,
+    pub unifies: u32,
+    pub refine_ms: f64,
+    pub upload_ms: f64,
+    pub upload_bytes: u64,
+    /// GPU time of the frame's pass (timestamp queries), when the adapter has them.
+    pub gpu_ms: Option<f64>,
+    /// Wall time of render + readback, for adapters without timestamps.
+    pub frame_ms: f64,
+    pub psnr_db: Option<f64>,
+    pub differing: Option<f64>,
+}
+
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Summary {
+    pub frames: usize,
+    pub adapter: String,
+    pub triangles_mean: f64,
+    pub triangles_max: u32,
+    pub full_triangles: usize,
+    pub refine_ms_median: f64,
+    pub refine_ms_p95: f64,
+    pub gpu_ms_median: Option<f64>,
+    pub upload_bytes_mean: f64,
+    pub psnr_db_mean: Option<f64>,
+    pub psnr_db_min: Option<f64>,
+    pub differing_mean: Option<f64>,
+    pub differing_max: Option<f64>,
+    pub worst_frame: Option<usize>,
+    pub written: Vec<PathBuf>,
+}
+
+/// Near and far planes for a model of this diagonal: close enough to fly into it, far enough to see
+/// it whole from any generated path.
+pub fn clip_planes(diagonal: f32) -> (f32, f32) {
+    let d = diagonal.max(f32::MIN_POSITIVE);
+    (d * 1e-3, d * 100.0)
+}
+
+pub fn camera_at(path: &CameraPath, t: f32, size: [u32; 2], diagonal: f32) -> Camera {
+    let (near, far) = clip_planes(diagonal);
+    path.camera(t, size, near, far)
+}
+
+/// Renders `path` over the model; writes frames, `stats.csv`, `contact_sheet.png` (and with
+/// `compare`, `worst_side_by_side.png`) into `job.out_dir`.
+pub fn render_path(
+    gpu: &Gpu,
+    h: &Hierarchy,
+    path: &CameraPath,
+    job: &RenderJob,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Summary, JobError> {
+    std::fs::create_dir_all(&job.out_dir).map_err(|e| JobError::io(&job.out_dir, e))?;
+    let (device, queue) = (&gpu.device, &gpu.queue);
+    let target = Offscreen::new(device, job.size);
+    let mut lod = Renderer::new(device, OFFSCREEN_FORMAT);
+    lod.set_hierarchy(device, queue, h);
+    let mut full = None;
+    let mut full_triangles = 0;
+    if job.compare {
+        let mut r = Renderer::new(device, OFFSCREEN_FORMAT);
+        r.set_hierarchy(device, queue, h);
+        let mut all = Front::new(h);
+        all.refine_all(h);
+        r.set_triangles(device, queue, all.indices());
+        full_triangles = all.triangle_count();
+        full = Some(r);
+    }
+    let mut refiner = Refiner::new(h, job.settings);
+    let frames = (path.duration() * job.fps).floor() as usize + 1;
+    let mut records = Vec::with_capacity(frames);
+    let mut kept = Vec::new();
+    let mut worst: Option<(f64, usize, [image::RgbaImage; 2])> = None;
+    let mut summary = Summary {
+        adapter: gpu.adapter_name(),
+        full_triangles,
+        ..Default::default()
+    };
+    let sheet_every = (frames / 16).max(1);
+    for i in 0..frames {
+        let t = i as f32 / job.fps;
+        let camera = camera_at(path, t, target.size, h.diagonal);
+        let stats = refiner.update(h, &camera);
+        let t0 = Instant::now();
+        let (front, moved) = refiner.output();
+        let upload = lod.upload(device, queue, front, moved);
+        let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t0 = Instant::now();
+        let (image, gpu_ms) = frame(gpu, &mut lod, &target, &camera, &job.draw)?;
+        let frame_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let mut record = FrameRecord {
+            frame: i,
+            time_s: t,
+            triangles: stats.triangles,
+            active_vertices: stats.active_vertices,
+            splits: stats.splits,
+            unifies: stats.unifies,
+            refine_ms: stats.refine_secs * 1e3,
+            upload_ms,
+            upload_bytes: upload.bytes,
+            gpu_ms,
+            frame_ms,
+            ..Default::default()
+        };
+        if let Some(full) = full.as_mut() {
+            let (reference, _) = frame(gpu, full, &target, &camera, &job.draw)?;
+            let Comparison {
+                psnr_db, differing, ..
+            } = image_diff::compare(&image, &reference);
+            record.psnr_db = Some(psnr_db);
+            record.differing = Some(differing);
+            if worst.as_ref().is_none_or(|w| psnr_db < w.0) {
+                worst = Some((psnr_db, i, [image.clone(), reference]));
+            }
+        }
+        if i % job.every.max(1) == 0 {
+            let file = job.out_dir.join(format!("frame_{i:05}.png"));
+            save(&image, &file)?;
+            summary.written.push(file);
+        }
+        if i % sheet_every == 0 && kept.len() < 16 {
+            kept.push(image);
+        }
+        records.push(record);
+        progress(i + 1, frames);
+    }
+
+    let csv = job.out_dir.join("stats.csv");
+    write_csv(&records, &csv).map_err(|e| JobError::io(&csv, e))?;
+    summary.written.push(csv);
+    let sheet = job.out_dir.join("contact_sheet.png");
+    save(&image_diff::contact_sheet(&kept, 4, 320), &sheet)?;
+    summary.written.push(sheet);
+    if let Some((_, i, [a, b])) = &worst {
+        let file = job.out_dir.join("worst_side_by_side.png");
+        let diff = image_diff::difference(a, b);
+        save(&image_diff::side_by_side(&[a, b, &diff]), &file)?;
+        summary.written.push(file);
+        summary.worst_frame = Some(*i);
+    }
+    summarise(&mut summary, &records);
+    Ok(summary)
+}
+
+/// Renders one frame into `target` and reads it back, with the GPU time where there are timestamps.
+pub fn frame(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    target: &Offscreen,
+    camera: &Camera,
+    draw: &DrawOptions,
+) -> Result<(image::RgbaImage, Option<f64>), RenderError> {
+    let mut encoder = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("frame"),
+        });
+    renderer.draw(
+        &gpu.queue,
+        &mut encoder,
+        &target.color_view,
+        &target.depth_view,
+        camera,
+        draw,
+    );
+    renderer.resolve_timing(&mut encoder);
+    target.copy_out(&mut encoder);
+    gpu.queue.submit([encoder.finish()]);
+    let image = target.read(&gpu.device)?;
+    let gpu_ms = renderer.read_gpu_ms(&gpu.device, &gpu.queue);
+    Ok((image, gpu_ms))
+}
+
+fn summarise(s: &mut Summary, records: &[FrameRecord]) {
+    s.frames = records.len();
+    if records.is_empty() {
+        return;
+    }
+    let n = records.len() as f64;
+    s.triangles_mean = records.iter().map(|r| r.triangles as f64).sum::<f64>() / n;
+    s.triangles_max = records.iter().map(|r| r.triangles).max().unwrap_or(0);
+    let mut refine: Vec<f64> = records.iter().map(|r| r.refine_ms).collect();
+    refine.sort_by(f64::total_cmp);
+    s.refine_ms_median = percentile(&refine, 0.5);
+    s.refine_ms_p95 = percentile(&refine, 0.95);
+    let mut gpu: Vec<f64> = records.iter().filter_map(|r| r.gpu_ms).collect();
+    gpu.sort_by(f64::total_cmp);
+    s.gpu_ms_median = (!gpu.is_empty()).then(|| percentile(&gpu, 0.5));
+    s.upload_bytes_mean = records.iter().map(|r| r.upload_bytes as f64).sum::<f64>() / n;
+    let psnr: Vec<f64> = records.iter().filter_map(|r| r.psnr_db).collect();
+    if !psnr.is_empty() {
+        // Identical frames have infinite PSNR; cap them at 100 dB for the mean.
+        s.psnr_db_mean = Some(psnr.iter().map(|p| p.min(100.0)).sum::<f64>() / psnr.len() as f64);
+        s.psnr_db_min = psnr.iter().copied().reduce(f64::min);
+        let diff: Vec<f64> = records.iter().filter_map(|r| r.differing).collect();
+        s.differing_mean = Some(diff.iter().sum::<f64>() / diff.len() as f64);
+        s.differing_max = diff.iter().copied().reduce(f64::max);
+    }
+}
+
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
+    let mut out = Vec::new();
+    writeln!(
+        out,
+        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share"
+    )?;
+    let opt = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.4}"));
+    for r in records {
+        writeln!(
+            out,
+            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{}",
+            r.frame,
+            r.time_s,
+            r.triangles,
+            r.active_vertices,
+            r.splits,
+            r.unifies,
+            r.refine_ms,
+            r.upload_ms,
+            r.upload_bytes,
+            opt(r.gpu_ms),
+            r.frame_ms,
+            opt(r.psnr_db),
+            opt(r.differing),
+        )?;
+    }
+    crate::export::write_atomic(file, &out)
+}
+
+/// Writes a PNG atomically.
+pub fn save(image: &image::RgbaImage, file: &Path) -> Result<(), JobError> {
+    let mut bytes = Vec::new();
+    image
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| JobError::Image(file.into(), e.to_string()))?;
+    crate::export::write_atomic(file, &bytes).map_err(|e| JobError::io(file, e))
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("{0}: {1}")]
+    Io(PathBuf, std::io::Error),
+    #[error("{0}: cannot encode the image: {1}")]
+    Image(PathBuf, String),
+}
+
+impl JobError {
+    fn io(path: &Path, e: std::io::Error) -> JobError {
+        JobError::Io(path.into(), e)
+    }
+}

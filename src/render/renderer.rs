@@ -1,0 +1,469 @@
+//! The long-lived renderer: pipelines, the model's per-node vertex buffers, and the index buffer that
+//! follows the front, written only where the runtime reports changes.
+
+use super::gpu_data::{Debug, Globals};
+use crate::refine::{Camera, Front, Hierarchy, View};
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// The index buffer grows by this factor when the front outgrows it, so that a growing front
+/// reallocates O(log n) times, not every frame.
+const GROWTH: f64 = 1.5;
+/// The smallest index buffer, in triangles.
+const MIN_TRIANGLES: u64 = 1024;
+
+/// How surfaces are coloured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum ColorBy {
+    /// The model's vertex colours when it has them, else a neutral grey; lit.
+    #[default]
+    Auto,
+    /// Neutral grey, lit.
+    Shaded,
+    /// Hue by the node's depth in the tree.
+    Depth,
+    /// The node's error projected on screen: blue at 0, green at τ, red at 2τ and above.
+    Error,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DrawOptions {
+    pub color_by: ColorBy,
+    /// Face normals instead of the nodes' interpolated normals.
+    pub flat: bool,
+    /// Draw the triangle edges over the surface (where the adapter can draw lines).
+    pub wireframe: bool,
+    /// Linear RGBA the target is cleared to.
+    pub background: [f64; 4],
+    /// τ, for the error colouring.
+    pub tolerance_px: f32,
+}
+
+impl Default for DrawOptions {
+    fn default() -> Self {
+        DrawOptions {
+            color_by: ColorBy::Auto,
+            flat: false,
+            wireframe: false,
+            background: [0.02, 0.025, 0.035, 1.0],
+            tolerance_px: 1.0,
+        }
+    }
+}
+
+/// What one upload moved to the GPU.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UploadStats {
+    pub bytes: u64,
+    /// The index buffer was reallocated.
+    pub reallocated: bool,
+}
+
+struct Model {
+    positions: wgpu::Buffer,
+    normals: wgpu::Buffer,
+    colors: wgpu::Buffer,
+    debug: wgpu::Buffer,
+    has_colors: bool,
+    indices: wgpu::Buffer,
+    /// Capacity of `indices`, in triangles.
+    capacity: u64,
+    triangles: u32,
+}
+
+/// GPU time of the last frame from timestamp queries, where the adapter has them.
+struct Timer {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    period_ns: f32,
+}
+
+pub struct Renderer {
+    fill: wgpu::RenderPipeline,
+    wire: Option<wgpu::RenderPipeline>,
+    globals: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    model: Option<Model>,
+    timer: Option<Timer>,
+}
+
+fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 4] {
+    const POSITION: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
+    const NORMAL: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![1 => Snorm16x2];
+    const COLOR: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Unorm8x4];
+    const DEBUG: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![3 => Float32x2];
+    let layout =
+        |stride: u64, attributes: &'static [wgpu::VertexAttribute]| wgpu::VertexBufferLayout {
+            array_stride: stride,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes,
+        };
+    [
+        layout(12, &POSITION),
+        layout(4, &NORMAL),
+        layout(4, &COLOR),
+        layout(8, &DEBUG),
+    ]
+}
+
+/// The WGSL of the mesh pass (also validated on the CPU by a test).
+pub const MESH_WGSL: &str = include_str!("../../shaders/mesh.wgsl");
+
+impl Renderer {
+    /// Pipelines for targets of `color_format` with a [`DEPTH_FORMAT`] depth buffer. The wireframe
+    /// pipeline exists only where the device has `POLYGON_MODE_LINE`.
+    pub fn new(device: &wgpu::Device, color_format: wgpu::TextureFormat) -> Renderer {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("mesh.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
+        });
+        let bind_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("globals"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("mesh"),
+            bind_group_layouts: &[Some(&bind_layout)],
+            immediate_size: 0,
+        });
+        let buffers = vertex_layouts().map(Some);
+        let pipeline = |label: &str, fragment: &str, polygon_mode, bias: wgpu::DepthBiasState| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    // Two-sided: trees merge across parts and the inputs are not all closed.
+                    cull_mode: None,
+                    polygon_mode,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                    stencil: Default::default(),
+                    bias,
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(fragment),
+                    compilation_options: Default::default(),
+                    targets: &[Some(color_format.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let fill = pipeline(
+            "fill",
+            "fs_main",
+            wgpu::PolygonMode::Fill,
+            Default::default(),
+        );
+        // Lines drawn over their own surface need a slope-scaled bias towards the eye; a constant
+        // one alone leaves them dashed (TOOLCHAIN.md).
+        let wire = device
+            .features()
+            .contains(wgpu::Features::POLYGON_MODE_LINE)
+            .then(|| {
+                pipeline(
+                    "wire",
+                    "fs_wire",
+                    wgpu::PolygonMode::Line,
+                    wgpu::DepthBiasState {
+                        constant: -2,
+                        slope_scale: -1.0,
+                        clamp: 0.0,
+                    },
+                )
+            });
+        let globals = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("globals"),
+            size: std::mem::size_of::<Globals>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("globals"),
+            layout: &bind_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            }],
+        });
+        let timer = device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| Timer {
+                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("frame time"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                }),
+                resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                readback: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps readback"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                period_ns: 1.0,
+            });
+        Renderer {
+            fill,
+            wire,
+            globals,
+            bind_group,
+            model: None,
+            timer,
+        }
+    }
+
+    /// Can this device draw the wireframe overlay?
+    pub fn has_wireframe(&self) -> bool {
+        self.wire.is_some()
+    }
+
+    /// Uploads the model's per-node data (positions, normals, colours, errors and depths) and starts
+    /// with an empty index buffer.
+    pub fn set_hierarchy(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, h: &Hierarchy) {
+        let vertex = |label: &str, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            })
+        };
+        let has_colors = !h.color.is_empty();
+        let colors: Vec<[u8; 4]> = if has_colors {
+            h.color.clone()
+        } else {
+            vec![[200, 194, 184, 255]; h.position.len()]
+        };
+        let mut depth = vec![0f32; h.position.len()];
+        for u in h.top_down() {
+            let p = h.parent[u as usize];
+            if p != crate::refine::hierarchy::NIL {
+                depth[u as usize] = depth[p as usize] + 1.0;
+            }
+        }
+        let debug: Vec<Debug> = (0..h.node_count())
+            .map(|u| Debug {
+                error: h.error(u),
+                depth: depth[u as usize],
+            })
+            .collect();
+        let model = Model {
+            positions: vertex("positions", bytemuck::cast_slice(&h.position)),
+            normals: vertex("normals", bytemuck::cast_slice(&h.normal)),
+            colors: vertex("colors", bytemuck::cast_slice(&colors)),
+            debug: vertex("debug", bytemuck::cast_slice(&debug)),
+            has_colors,
+            indices: index_buffer(device, MIN_TRIANGLES),
+            capacity: MIN_TRIANGLES,
+            triangles: 0,
+        };
+        self.model = Some(model);
+        queue.submit([]);
+    }
+
+    /// Writes what changed in the front since the last upload: its dirty index ranges and the
+    /// geomorphing vertices. The index buffer grows geometrically when the front outgrows it.
+    pub fn upload(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        front: &mut Front,
+        vertex_updates: &[(u32, Vec3)],
+    ) -> UploadStats {
+        let model = self.model.as_mut().expect("set_hierarchy before upload");
+        let mut stats = UploadStats::default();
+        let dirty = front.take_dirty();
+        let indices = front.indices();
+        let needed = indices.len() as u64;
+        if needed > model.capacity {
+            let capacity = ((model.capacity as f64 * GROWTH) as u64).max(needed);
+            model.indices = index_buffer(device, capacity);
+            model.capacity = capacity;
+            stats.reallocated = true;
+            let bytes: &[u8] = bytemuck::cast_slice(indices);
+            queue.write_buffer(&model.indices, 0, bytes);
+            stats.bytes += bytes.len() as u64;
+        } else {
+            for range in dirty {
+                let slice = &indices[range.start as usize..range.end as usize];
+                let bytes: &[u8] = bytemuck::cast_slice(slice);
+                queue.write_buffer(&model.indices, range.start as u64 * 12, bytes);
+                stats.bytes += bytes.len() as u64;
+            }
+        }
+        model.triangles = indices.len() as u32;
+        for &(u, p) in vertex_updates {
+            queue.write_buffer(&model.positions, u as u64 * 12, bytemuck::bytes_of(&p));
+            stats.bytes += 12;
+        }
+        stats
+    }
+
+    /// Replaces the drawn triangles wholesale (a static mesh, e.g. the full-resolution reference).
+    pub fn set_triangles(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        indices: &[[u32; 3]],
+    ) {
+        let model = self
+            .model
+            .as_mut()
+            .expect("set_hierarchy before set_triangles");
+        if indices.len() as u64 > model.capacity {
+            model.capacity = indices.len() as u64;
+            model.indices = index_buffer(device, model.capacity);
+        }
+        queue.write_buffer(&model.indices, 0, bytemuck::cast_slice(indices));
+        model.triangles = indices.len() as u32;
+    }
+
+    /// Triangles the next draw will draw.
+    pub fn triangles(&self) -> u32 {
+        self.model.as_ref().map_or(0, |m| m.triangles)
+    }
+
+    /// Records the frame: clears `color` and `depth`, draws the model as seen by `camera`.
+    pub fn draw(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        color: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        camera: &Camera,
+        options: &DrawOptions,
+    ) {
+        let view = View::new(camera);
+        let forward = camera.forward();
+        // A headlight, raised and to the left, so that shapes read from any side.
+        let light = (-forward + camera.orientation * Vec3::new(-0.4, 0.6, 0.0)).normalize();
+        let has_colors = self.model.as_ref().is_some_and(|m| m.has_colors);
+        let mode = match options.color_by {
+            ColorBy::Auto if has_colors => 1,
+            ColorBy::Auto | ColorBy::Shaded => 0,
+            ColorBy::Depth => 2,
+            ColorBy::Error => 3,
+        };
+        let globals = Globals {
+            clip_from_world: camera.clip_from_world().to_cols_array_2d(),
+            eye: camera.position.extend(view.px_per_unit()).to_array(),
+            light: light.extend(0.25).to_array(),
+            params: [options.tolerance_px, camera.near, 0.0, 0.0],
+            modes: [mode, options.flat as u32, 0, 0],
+            wire_color: [0.02, 0.02, 0.02, 1.0],
+        };
+        queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+        let [r, g, b, a] = options.background;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("mesh"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: color,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: self
+                .timer
+                .as_ref()
+                .map(|t| wgpu::RenderPassTimestampWrites {
+                    query_set: &t.queries,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        let Some(model) = self.model.as_ref().filter(|m| m.triangles > 0) else {
+            return;
+        };
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, model.positions.slice(..));
+        pass.set_vertex_buffer(1, model.normals.slice(..));
+        pass.set_vertex_buffer(2, model.colors.slice(..));
+        pass.set_vertex_buffer(3, model.debug.slice(..));
+        pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.set_pipeline(&self.fill);
+        pass.draw_indexed(0..model.triangles * 3, 0, 0..1);
+        if options.wireframe
+            && let Some(wire) = &self.wire
+        {
+            pass.set_pipeline(wire);
+            pass.draw_indexed(0..model.triangles * 3, 0, 0..1);
+        }
+    }
+
+    /// After [`Renderer::draw`]'s commands: copies the frame's timestamps out (call before submit).
+    pub fn resolve_timing(&self, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(t) = &self.timer {
+            encoder.resolve_query_set(&t.queries, 0..2, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, 16);
+        }
+    }
+
+    /// GPU milliseconds of the last submitted frame (waits for it); `None` without timestamps.
+    pub fn read_gpu_ms(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) -> Option<f64> {
+        let t = self.timer.as_mut()?;
+        t.period_ns = queue.get_timestamp_period();
+        let slice = t.readback.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        let ms = {
+            let data = slice.get_mapped_range().ok()?;
+            let ticks: &[u64] = bytemuck::cast_slice(&data);
+            ticks[1].saturating_sub(ticks[0]) as f64 * t.period_ns as f64 / 1e6
+        };
+        t.readback.unmap();
+        Some(ms)
+    }
+}
+
+fn index_buffer(device: &wgpu::Device, triangles: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("indices"),
+        size: triangles.max(1) * 12,
+        usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
