@@ -120,3 +120,70 @@ fn help_explains_every_option() {
         assert!(help.contains(option), "build --help lacks {option}");
     }
 }
+
+/// `vunify path` writes a path that `vunify render` reads; a broken path file is an error naming the
+/// file, line and column; with no Vulkan adapter `render` says how to install lavapipe.
+#[test]
+fn path_and_render_commands() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let path = tmp("fly.json");
+    let out = ok(&vunify(&[
+        "path",
+        "--kind",
+        "fly-in",
+        model,
+        "--seconds",
+        "2",
+        "-o",
+        path.to_str().unwrap(),
+    ]));
+    assert!(out.contains("keyframes"), "{out}");
+    vunify::path::CameraPath::load(&path).unwrap();
+
+    let broken = tmp("broken.json");
+    std::fs::write(
+        &broken,
+        "{\n  \"keyframes\": [\n    {\"time\": 0, \"position\": [1, 2]}\n  ]\n}",
+    )
+    .unwrap();
+    let out = vunify(&["render", model, "--path", broken.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("broken.json:3:"), "{err}");
+
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args([
+            "render",
+            model,
+            "--path",
+            path.to_str().unwrap(),
+            "--out",
+            tmp("r").to_str().unwrap(),
+        ])
+        .env("WGPU_BACKEND", "vulkan")
+        .env("VK_DRIVER_FILES", "/nonexistent.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent.json")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no Vulkan adapter") && err.contains("mesa-vulkan-drivers"),
+        "{err}"
+    );
+
+    let help = ok(&vunify(&["render", "--help"]));
+    for option in [
+        "--path",
+        "--out",
+        "--size",
+        "--tau",
+        "--budget",
+        "--every",
+        "--compare",
+        "--wireframe",
+        "--color-by",
+    ] {
+        assert!(help.contains(option), "render --help lacks {option}");
+    }
+}

@@ -1,0 +1,358 @@
+//! The renderer on lavapipe (or any Vulkan adapter): golden images, LOD against the full mesh,
+//! determinism, resizing, an empty front, extreme coordinate scales. The README's test command installs
+//! lavapipe; in CI (`CI` set) these tests fail rather than skip when no adapter is found.
+#![cfg(feature = "render")]
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use image::RgbaImage;
+use std::path::{Path, PathBuf};
+use vunify::mesh::Mesh;
+use vunify::path::CameraPath;
+use vunify::refine::{Front, Hierarchy, Refiner, Settings};
+use vunify::render::headless::OFFSCREEN_FORMAT;
+use vunify::render::image_diff::{self, compare, difference};
+use vunify::render::job::{self, camera_at};
+use vunify::render::{DrawOptions, Gpu, Offscreen, Renderer};
+use vunify::vtree::{self, BuildOptions, VertexTree};
+
+/// The GPU, or `None` (skipping) outside CI when there is none; in CI a missing GPU fails.
+fn gpu() -> Option<Gpu> {
+    match Gpu::headless() {
+        Ok(g) => Some(g),
+        Err(e) if std::env::var_os("CI").is_some() => panic!("CI has no GPU adapter: {e}"),
+        Err(e) => {
+            eprintln!("skipping: {e}");
+            None
+        }
+    }
+}
+
+fn tree_of(mesh: &Mesh) -> VertexTree {
+    vtree::build(mesh, &BuildOptions::default(), &mut |_, _| {})
+        .unwrap()
+        .0
+}
+
+fn cessna() -> VertexTree {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cessna.obj");
+    let (mesh, _) = vunify::mesh::load(&path, &Default::default()).unwrap();
+    tree_of(&mesh)
+}
+
+fn bounds(h: &Hierarchy) -> (Vec3, f32) {
+    let leaves = &h.position[..h.leaf_count as usize];
+    let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+    let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+    ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+}
+
+/// Renders the full mesh (every node split) or the LOD front of `settings` from `t` on `path`.
+fn render(
+    gpu: &Gpu,
+    h: &Hierarchy,
+    path: &CameraPath,
+    t: f32,
+    size: [u32; 2],
+    lod: Option<Settings>,
+) -> (RgbaImage, usize) {
+    let target = Offscreen::new(&gpu.device, size);
+    let mut r = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    r.set_hierarchy(&gpu.device, &gpu.queue, h);
+    let camera = camera_at(path, t, size, h.diagonal);
+    let triangles = match lod {
+        None => {
+            let mut f = Front::new(h);
+            f.refine_all(h);
+            r.set_triangles(&gpu.device, &gpu.queue, f.indices());
+            f.triangle_count()
+        }
+        Some(settings) => {
+            let mut refiner = Refiner::new(h, settings);
+            refiner.update(h, &camera);
+            let (front, moved) = refiner.output();
+            r.upload(&gpu.device, &gpu.queue, front, moved);
+            front.triangle_count()
+        }
+    };
+    let (image, _) = job::frame(gpu, &mut r, &target, &camera, &DrawOptions::default()).unwrap();
+    (image, triangles)
+}
+
+fn failures_dir() -> PathBuf {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/golden-failures");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Golden tolerance: at most this share of pixels may differ by more than 8/255 (another Mesa or
+/// LLVM rasterises a few edge pixels differently; the same one is byte-identical).
+const GOLDEN_SHARE: f64 = 0.005;
+
+/// Compares with `tests/golden/NAME.png`; `VUNIFY_BLESS=1` (re)writes it. On failure writes
+/// `NAME-actual.png` and `NAME-difference.png` to `target/golden-failures/`.
+fn assert_golden(name: &str, image: &RgbaImage) {
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/golden/{name}.png"));
+    if std::env::var_os("VUNIFY_BLESS").is_some() {
+        job::save(image, &golden).unwrap();
+        return;
+    }
+    let expected = image::open(&golden)
+        .unwrap_or_else(|e| panic!("{}: {e} (VUNIFY_BLESS=1 writes it)", golden.display()))
+        .to_rgba8();
+    let c = compare(image, &expected);
+    if c.differing > GOLDEN_SHARE {
+        let dir = failures_dir();
+        job::save(image, &dir.join(format!("{name}-actual.png"))).unwrap();
+        job::save(
+            &difference(image, &expected),
+            &dir.join(format!("{name}-difference.png")),
+        )
+        .unwrap();
+        panic!(
+            "{name}: {:.3} % of pixels differ by more than 8/255 (tolerance {:.1} %), PSNR {:.1} dB; see {}",
+            c.differing * 100.0,
+            GOLDEN_SHARE * 100.0,
+            c.psnr_db,
+            dir.display()
+        );
+    }
+}
+
+#[test]
+fn golden_images_of_the_bundled_model() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let (c, r) = bounds(&h);
+    let path = CameraPath::orbit(c, r * 0.8, 4.0);
+    for (i, t) in [0.0, 1.3, 2.6].into_iter().enumerate() {
+        let (full, _) = render(&gpu, &h, &path, t, [320, 240], None);
+        assert_golden(&format!("cessna-full-{i}"), &full);
+        let (lod, _) = render(
+            &gpu,
+            &h,
+            &path,
+            t,
+            [320, 240],
+            Some(Settings {
+                tolerance_px: 2.0,
+                ..Default::default()
+            }),
+        );
+        assert_golden(&format!("cessna-lod2px-{i}"), &lod);
+    }
+}
+
+/// Along a short path, the LOD at τ = 0.5 px looks like the full mesh.
+#[test]
+fn lod_at_half_a_pixel_matches_the_full_mesh() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let (c, r) = bounds(&h);
+    let path = CameraPath::fly_in(c, r, 3.0);
+    let mut worst = f64::INFINITY;
+    for t in [0.0, 1.0, 2.0, 3.0] {
+        let (full, n_full) = render(&gpu, &h, &path, t, [400, 300], None);
+        let (lod, n_lod) = render(
+            &gpu,
+            &h,
+            &path,
+            t,
+            [400, 300],
+            Some(Settings {
+                tolerance_px: 0.5,
+                ..Default::default()
+            }),
+        );
+        let cmp = compare(&lod, &full);
+        eprintln!(
+            "t = {t}: {n_lod} of {n_full} triangles, PSNR {:.1} dB, {:.3} % pixels off",
+            cmp.psnr_db,
+            cmp.differing * 100.0
+        );
+        worst = worst.min(cmp.psnr_db);
+        assert!(
+            cmp.psnr_db >= LOD_PSNR_DB && cmp.differing <= LOD_DIFFERING,
+            "t = {t}: PSNR {:.1} dB, {:.2} % of pixels off",
+            cmp.psnr_db,
+            cmp.differing * 100.0
+        );
+    }
+    eprintln!("worst PSNR {worst:.1} dB");
+}
+
+/// The bound for τ = 0.5 px: PSNR at least 32 dB and at most 2.5 % of pixels off by more than 8/255.
+/// Measured on this path: 47.5, 41.7, 36.3 and 33.9 dB (0.05–1.85 % of pixels), the last close to the
+/// wing, where shallow panel grooves under half a pixel deep still change the shading of the pixels
+/// around them. At τ = 0.1 px the worst frame is 41.5 dB.
+const LOD_PSNR_DB: f64 = 32.0;
+const LOD_DIFFERING: f64 = 0.025;
+
+#[test]
+fn rendering_is_deterministic() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let (c, r) = bounds(&h);
+    let path = CameraPath::orbit(c, r, 2.0);
+    let a = render(&gpu, &h, &path, 0.7, [256, 192], Some(Settings::default())).0;
+    let b = render(&gpu, &h, &path, 0.7, [256, 192], Some(Settings::default())).0;
+    assert!(a == b, "two renders of one frame differ");
+}
+
+/// One renderer, targets of several sizes (a window being resized): each frame is whole, and the
+/// front refines more for more pixels.
+#[test]
+fn resizing() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let (c, r) = bounds(&h);
+    let path = CameraPath::orbit(c, r, 2.0);
+    let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
+    let mut refiner = Refiner::new(&h, Settings::default());
+    let mut counts = Vec::new();
+    for size in [[160, 120], [800, 600], [333, 77], [1, 1]] {
+        let target = Offscreen::new(&gpu.device, size);
+        let camera = camera_at(&path, 0.5, size, h.diagonal);
+        refiner.update(&h, &camera);
+        let (front, moved) = refiner.output();
+        renderer.upload(&gpu.device, &gpu.queue, front, moved);
+        counts.push(front.triangle_count());
+        let (image, _) = job::frame(
+            &gpu,
+            &mut renderer,
+            &target,
+            &camera,
+            &DrawOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(image.dimensions(), (size[0], size[1]));
+        if size[0] > 100 {
+            let background = image.get_pixel(0, 0);
+            let covered = image.pixels().filter(|p| p != &background).count();
+            assert!(covered > 0, "{size:?}: nothing drawn");
+        }
+    }
+    assert!(
+        counts[1] > counts[0],
+        "more pixels, more triangles: {counts:?}"
+    );
+}
+
+#[test]
+fn an_empty_front_draws_the_background() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let (c, r) = bounds(&h);
+    let path = CameraPath::orbit(c, r, 2.0);
+    let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
+    let mut front = Front::new(&h); // the root alone: no triangle
+    renderer.upload(&gpu.device, &gpu.queue, &mut front, &[]);
+    let target = Offscreen::new(&gpu.device, [64, 48]);
+    let camera = camera_at(&path, 0.0, [64, 48], h.diagonal);
+    let (image, _) = job::frame(
+        &gpu,
+        &mut renderer,
+        &target,
+        &camera,
+        &DrawOptions::default(),
+    )
+    .unwrap();
+    let first = *image.get_pixel(0, 0);
+    assert!(image.pixels().all(|p| *p == first));
+}
+
+/// The same model at 1e-4 and 1e4 times its size renders the same picture (within rounding).
+#[test]
+fn tiny_and_huge_coordinates() {
+    let Some(gpu) = gpu() else { return };
+    let base = grid(16, 16, |x, y| (x * 0.5).sin() * (y * 0.4).cos() * 2.0);
+    let mut images = Vec::new();
+    for scale in [1e-4f32, 1.0, 1e4] {
+        let mut mesh = base.clone();
+        for p in &mut mesh.positions {
+            *p *= scale;
+        }
+        let tree = tree_of(&mesh);
+        let h = Hierarchy::new(&tree);
+        let (c, r) = bounds(&h);
+        let path = CameraPath::orbit(c, r, 2.0);
+        images.push(render(&gpu, &h, &path, 0.3, [200, 150], Some(Settings::default())).0);
+    }
+    for (i, scale) in [(0, "1e-4"), (2, "1e4")] {
+        let c = compare(&images[i], &images[1]);
+        assert!(
+            c.differing < 0.01,
+            "scale {scale}: {:.2} % of pixels differ from scale 1",
+            c.differing * 100.0
+        );
+    }
+}
+
+/// Every shader in `shaders/` parses and validates with naga, on the CPU.
+#[test]
+fn shaders_validate() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "wgsl") {
+            let source = std::fs::read_to_string(&path).unwrap();
+            let module = naga::front::wgsl::parse_str(&source)
+                .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+            count += 1;
+        }
+    }
+    assert!(count >= 1);
+}
+
+/// `vunify render` over a whole (short) path writes frames, statistics and a contact sheet.
+#[test]
+fn render_job_writes_its_files() {
+    let Some(gpu) = gpu() else { return };
+    let tree = tree_of(&random_scene(5));
+    let h = Hierarchy::new(&tree);
+    let (c, r) = bounds(&h);
+    let path = CameraPath::fly_in(c, r, 1.0);
+    let out = std::env::temp_dir().join(format!("vunify-render-{}", std::process::id()));
+    let job = job::RenderJob {
+        size: [128, 96],
+        settings: Settings::default(),
+        draw: DrawOptions::default(),
+        fps: 10.0,
+        every: 5,
+        compare: true,
+        out_dir: out.clone(),
+    };
+    let s = job::render_path(&gpu, &h, &path, &job, &mut |_, _| {}).unwrap();
+    assert_eq!(s.frames, 11);
+    for f in [
+        "frame_00000.png",
+        "frame_00005.png",
+        "frame_00010.png",
+        "stats.csv",
+        "contact_sheet.png",
+        "worst_side_by_side.png",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 12);
+    assert!(s.psnr_db_mean.is_some());
+    let _ = image_diff::VISIBLE_DIFFERENCE;
+    std::fs::remove_dir_all(out).ok();
+}
