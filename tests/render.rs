@@ -356,3 +356,102 @@ fn render_job_writes_its_files() {
     let _ = image_diff::VISIBLE_DIFFERENCE;
     std::fs::remove_dir_all(out).ok();
 }
+
+/// Renders the full cessna with `renderer` (already given the hierarchy) from a fixed view.
+fn full_frame(gpu: &Gpu, renderer: &mut Renderer, h: &Hierarchy, draw: &DrawOptions) -> RgbaImage {
+    let mut f = Front::new(h);
+    f.refine_all(h);
+    renderer.set_triangles(&gpu.device, &gpu.queue, f.indices());
+    let (c, r) = bounds(h);
+    let path = CameraPath::orbit(c, r * 0.6, 4.0);
+    let target = Offscreen::new(&gpu.device, [400, 300]);
+    let camera = camera_at(&path, 1.0, [400, 300], h.diagonal);
+    job::frame(gpu, renderer, &target, &camera, draw).unwrap().0
+}
+
+/// A model bigger than one index buffer renders the same in many chunks as in one; dirty updates that
+/// straddle chunks land where they should.
+#[test]
+fn index_buffer_chunks() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let mut whole = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    whole.set_hierarchy(&gpu.device, &gpu.queue, &h);
+    let mut chunked = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    chunked.set_chunk_triangles(1000);
+    chunked.set_hierarchy(&gpu.device, &gpu.queue, &h);
+    let draw = DrawOptions::default();
+    assert!(full_frame(&gpu, &mut whole, &h, &draw) == full_frame(&gpu, &mut chunked, &h, &draw));
+    // Along a path, uploading only dirty ranges into 1000-triangle chunks.
+    let (c, r) = bounds(&h);
+    let path = CameraPath::fly_in(c, r, 2.0);
+    let mut a = Refiner::new(&h, Settings::default());
+    let mut b = Refiner::new(&h, Settings::default());
+    let target = Offscreen::new(&gpu.device, [200, 150]);
+    for i in 0..8 {
+        let camera = camera_at(&path, i as f32 * 0.25, [200, 150], h.diagonal);
+        for (refiner, renderer) in [(&mut a, &mut whole), (&mut b, &mut chunked)] {
+            refiner.update(&h, &camera);
+            let (front, moved) = refiner.output();
+            renderer.upload(&gpu.device, &gpu.queue, front, moved);
+        }
+        let x = job::frame(&gpu, &mut whole, &target, &camera, &draw)
+            .unwrap()
+            .0;
+        let y = job::frame(&gpu, &mut chunked, &target, &camera, &draw)
+            .unwrap()
+            .0;
+        assert!(x == y, "frame {i}: chunked rendering differs");
+    }
+}
+
+/// The wireframe overlay, with lines and with the barycentric fallback: both draw the edges.
+#[test]
+fn wireframe_lines_and_barycentric() {
+    let Some(gpu) = gpu() else { return };
+    let tree = cessna();
+    let h = Hierarchy::new(&tree);
+    let plain = DrawOptions::default();
+    let wire = DrawOptions {
+        wireframe: true,
+        ..plain
+    };
+    let dark = |img: &RgbaImage| {
+        img.pixels()
+            .filter(|p| p[0] < 60 && p[1] < 60 && p[2] < 60)
+            .count()
+    };
+    let mut base = None;
+    for mode in [
+        vunify::render::WireMode::Auto,
+        vunify::render::WireMode::Barycentric,
+    ] {
+        let mut r = Renderer::with_wire_mode(&gpu.device, OFFSCREEN_FORMAT, mode);
+        r.set_hierarchy(&gpu.device, &gpu.queue, &h);
+        let without = full_frame(&gpu, &mut r, &h, &plain);
+        let with = full_frame(&gpu, &mut r, &h, &wire);
+        job::save(
+            &with,
+            &failures_dir().join(format!("wireframe-{}.png", r.wireframe_kind())),
+        )
+        .unwrap();
+        let (d0, d1) = (dark(&without), dark(&with));
+        // The background is dark too; edges add dark pixels on the model.
+        let added = d1.saturating_sub(d0);
+        eprintln!("{}: {added} pixels darkened by edges", r.wireframe_kind());
+        assert!(
+            added > 2000,
+            "{}: only {added} pixels darkened",
+            r.wireframe_kind()
+        );
+        if let Some(b) = base {
+            let ratio = added as f64 / b as f64;
+            assert!(
+                (0.3..3.0).contains(&ratio),
+                "the two overlays differ in weight: {ratio}"
+            );
+        }
+        base = Some(added);
+    }
+}

@@ -39,7 +39,11 @@ impl Gpu {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("vunify"),
             required_features: adapter.features() & wanted,
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+            // The adapter's largest buffers and textures: big models and big frames.
+            required_limits: wgpu::Limits {
+                max_buffer_size: adapter.limits().max_buffer_size,
+                ..wgpu::Limits::default().using_resolution(adapter.limits())
+            },
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;

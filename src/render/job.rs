@@ -192,6 +192,7 @@ pub fn frame(
             label: Some("frame"),
         });
     renderer.draw(
+        &gpu.device,
         &gpu.queue,
         &mut encoder,
         &target.color_view,

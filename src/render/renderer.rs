@@ -11,6 +11,8 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The index buffer grows by this factor when the front outgrows it, so that a growing front
 /// reallocates O(log n) times, not every frame.
 const GROWTH: f64 = 1.5;
+/// No index buffer chunk is larger than lavapipe's largest storage binding, 128 MiB.
+const MAX_CHUNK_BYTES: u64 = 128 << 20;
 /// The smallest index buffer, in triangles.
 const MIN_TRIANGLES: u64 = 1024;
 
@@ -67,9 +69,7 @@ struct Model {
     colors: wgpu::Buffer,
     debug: wgpu::Buffer,
     has_colors: bool,
-    indices: wgpu::Buffer,
-    /// Capacity of `indices`, in triangles.
-    capacity: u64,
+    indices: Indices,
     triangles: u32,
 }
 
@@ -82,8 +82,12 @@ struct Timer {
 }
 
 pub struct Renderer {
+    /// Triangles per index buffer chunk.
+    chunk_triangles: u64,
     fill: wgpu::RenderPipeline,
     wire: Option<wgpu::RenderPipeline>,
+    /// The wireframe where lines cannot be drawn: barycentric edges from pulled vertices.
+    barycentric: Option<(wgpu::RenderPipeline, wgpu::BindGroupLayout)>,
     globals: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     model: Option<Model>,
@@ -111,11 +115,30 @@ fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 4] {
 
 /// The WGSL of the mesh pass (also validated on the CPU by a test).
 pub const MESH_WGSL: &str = include_str!("../../shaders/mesh.wgsl");
+/// The WGSL of the barycentric wireframe fallback.
+pub const WIRE_BARYCENTRIC_WGSL: &str = include_str!("../../shaders/wire_barycentric.wgsl");
+
+/// How the wireframe overlay is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WireMode {
+    /// `POLYGON_MODE_LINE` where the device has it, else barycentric.
+    Auto,
+    /// Barycentric edges even where lines exist (to test the fallback).
+    Barycentric,
+}
 
 impl Renderer {
     /// Pipelines for targets of `color_format` with a [`DEPTH_FORMAT`] depth buffer. The wireframe
     /// pipeline exists only where the device has `POLYGON_MODE_LINE`.
     pub fn new(device: &wgpu::Device, color_format: wgpu::TextureFormat) -> Renderer {
+        Self::with_wire_mode(device, color_format, WireMode::Auto)
+    }
+
+    pub fn with_wire_mode(
+        device: &wgpu::Device,
+        color_format: wgpu::TextureFormat,
+        wire_mode: WireMode,
+    ) -> Renderer {
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("mesh.wgsl"),
             source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
@@ -182,21 +205,24 @@ impl Renderer {
         );
         // Lines drawn over their own surface need a slope-scaled bias towards the eye; a constant
         // one alone leaves them dashed (TOOLCHAIN.md).
-        let wire = device
+        let lines = device
             .features()
             .contains(wgpu::Features::POLYGON_MODE_LINE)
-            .then(|| {
-                pipeline(
-                    "wire",
-                    "fs_wire",
-                    wgpu::PolygonMode::Line,
-                    wgpu::DepthBiasState {
-                        constant: -2,
-                        slope_scale: -1.0,
-                        clamp: 0.0,
-                    },
-                )
-            });
+            && wire_mode == WireMode::Auto;
+        let wire = lines.then(|| {
+            pipeline(
+                "wire",
+                "fs_wire",
+                wgpu::PolygonMode::Line,
+                wgpu::DepthBiasState {
+                    constant: -2,
+                    slope_scale: -1.0,
+                    clamp: 0.0,
+                },
+            )
+        });
+        let barycentric =
+            (!lines).then(|| barycentric_pipeline(device, color_format, &bind_layout));
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals"),
             size: std::mem::size_of::<Globals>() as u64,
@@ -234,9 +260,12 @@ impl Renderer {
                 }),
                 period_ns: 1.0,
             });
+        let chunk_bytes = device.limits().max_buffer_size.min(MAX_CHUNK_BYTES);
         Renderer {
+            chunk_triangles: (chunk_bytes / 12).max(1),
             fill,
             wire,
+            barycentric,
             globals,
             bind_group,
             model: None,
@@ -244,9 +273,19 @@ impl Renderer {
         }
     }
 
-    /// Can this device draw the wireframe overlay?
-    pub fn has_wireframe(&self) -> bool {
-        self.wire.is_some()
+    /// Splits the index buffer into chunks of at most this many triangles (tests use it to check
+    /// that models larger than one buffer render). Call before [`Renderer::set_hierarchy`].
+    pub fn set_chunk_triangles(&mut self, triangles: u64) {
+        self.chunk_triangles = triangles.max(1);
+    }
+
+    /// How the wireframe overlay is drawn: "lines" or "barycentric".
+    pub fn wireframe_kind(&self) -> &'static str {
+        if self.wire.is_some() {
+            "lines"
+        } else {
+            "barycentric"
+        }
     }
 
     /// Uploads the model's per-node data (positions, normals, colours, errors and depths) and starts
@@ -279,13 +318,19 @@ impl Renderer {
             })
             .collect();
         let model = Model {
-            positions: vertex("positions", bytemuck::cast_slice(&h.position)),
+            positions: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("positions"),
+                contents: bytemuck::cast_slice(&h.position),
+                // Storage too: the barycentric wireframe pulls positions itself.
+                usage: wgpu::BufferUsages::VERTEX
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::STORAGE,
+            }),
             normals: vertex("normals", bytemuck::cast_slice(&h.normal)),
             colors: vertex("colors", bytemuck::cast_slice(&colors)),
             debug: vertex("debug", bytemuck::cast_slice(&debug)),
             has_colors,
-            indices: index_buffer(device, MIN_TRIANGLES),
-            capacity: MIN_TRIANGLES,
+            indices: Indices::new(device, self.chunk_triangles),
             triangles: 0,
         };
         self.model = Some(model);
@@ -305,21 +350,15 @@ impl Renderer {
         let mut stats = UploadStats::default();
         let dirty = front.take_dirty();
         let indices = front.indices();
-        let needed = indices.len() as u64;
-        if needed > model.capacity {
-            let capacity = ((model.capacity as f64 * GROWTH) as u64).max(needed);
-            model.indices = index_buffer(device, capacity);
-            model.capacity = capacity;
+        if model.indices.ensure(device, indices.len() as u64) {
             stats.reallocated = true;
-            let bytes: &[u8] = bytemuck::cast_slice(indices);
-            queue.write_buffer(&model.indices, 0, bytes);
-            stats.bytes += bytes.len() as u64;
+            model.indices.write(queue, 0, indices);
+            stats.bytes += indices.len() as u64 * 12;
         } else {
             for range in dirty {
                 let slice = &indices[range.start as usize..range.end as usize];
-                let bytes: &[u8] = bytemuck::cast_slice(slice);
-                queue.write_buffer(&model.indices, range.start as u64 * 12, bytes);
-                stats.bytes += bytes.len() as u64;
+                model.indices.write(queue, range.start as u64, slice);
+                stats.bytes += slice.len() as u64 * 12;
             }
         }
         model.triangles = indices.len() as u32;
@@ -341,11 +380,8 @@ impl Renderer {
             .model
             .as_mut()
             .expect("set_hierarchy before set_triangles");
-        if indices.len() as u64 > model.capacity {
-            model.capacity = indices.len() as u64;
-            model.indices = index_buffer(device, model.capacity);
-        }
-        queue.write_buffer(&model.indices, 0, bytemuck::cast_slice(indices));
+        model.indices.ensure(device, indices.len() as u64);
+        model.indices.write(queue, 0, indices);
         model.triangles = indices.len() as u32;
     }
 
@@ -357,6 +393,7 @@ impl Renderer {
     /// Records the frame: clears `color` and `depth`, draws the model as seen by `camera`.
     pub fn draw(
         &self,
+        device: &wgpu::Device,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
@@ -423,14 +460,39 @@ impl Renderer {
         pass.set_vertex_buffer(1, model.normals.slice(..));
         pass.set_vertex_buffer(2, model.colors.slice(..));
         pass.set_vertex_buffer(3, model.debug.slice(..));
-        pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.set_pipeline(&self.fill);
-        pass.draw_indexed(0..model.triangles * 3, 0, 0..1);
-        if options.wireframe
-            && let Some(wire) = &self.wire
-        {
-            pass.set_pipeline(wire);
-            pass.draw_indexed(0..model.triangles * 3, 0, 0..1);
+        model.indices.draw(&mut pass, model.triangles as u64);
+        if options.wireframe {
+            if let Some(wire) = &self.wire {
+                pass.set_pipeline(wire);
+                model.indices.draw(&mut pass, model.triangles as u64);
+            } else if let Some((pipeline, layout)) = &self.barycentric {
+                pass.set_pipeline(pipeline);
+                let triangles = model.triangles as u64;
+                for (i, chunk) in model.indices.chunks.iter().enumerate() {
+                    let first = i as u64 * model.indices.chunk;
+                    if first >= triangles {
+                        break;
+                    }
+                    let n = (triangles - first).min(model.indices.chunk) as u32;
+                    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("barycentric wireframe"),
+                        layout,
+                        entries: &[
+                            wgpu::BindGroupEntry {
+                                binding: 0,
+                                resource: model.positions.as_entire_binding(),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 1,
+                                resource: chunk.as_entire_binding(),
+                            },
+                        ],
+                    });
+                    pass.set_bind_group(1, &group, &[]);
+                    pass.draw(0..n * 3, 0..1);
+                }
+            }
         }
     }
 
@@ -459,11 +521,142 @@ impl Renderer {
     }
 }
 
+/// The index buffer, in chunks of at most `chunk` triangles: a front larger than one buffer may be
+/// (the device's `max_buffer_size`, and at most 128 MiB, lavapipe's largest storage binding, so that
+/// no chunk is ever near a limit) is drawn chunk by chunk.
+struct Indices {
+    chunks: Vec<wgpu::Buffer>,
+    chunk: u64,
+    capacity: u64,
+}
+
+impl Indices {
+    fn new(device: &wgpu::Device, chunk: u64) -> Indices {
+        let first = MIN_TRIANGLES.min(chunk);
+        Indices {
+            chunks: vec![index_buffer(device, first)],
+            chunk,
+            capacity: first,
+        }
+    }
+
+    /// Makes room for `needed` triangles, growing geometrically; returns whether the buffers were
+    /// replaced (their contents are then undefined: write them all).
+    fn ensure(&mut self, device: &wgpu::Device, needed: u64) -> bool {
+        if needed <= self.capacity {
+            return false;
+        }
+        let capacity = ((self.capacity as f64 * GROWTH) as u64).max(needed);
+        self.chunks = (0..capacity.div_ceil(self.chunk))
+            .map(|i| index_buffer(device, (capacity - i * self.chunk).min(self.chunk)))
+            .collect();
+        self.capacity = capacity;
+        true
+    }
+
+    /// Writes triangles from slot `start` on, across chunk boundaries.
+    fn write(&self, queue: &wgpu::Queue, start: u64, triangles: &[[u32; 3]]) {
+        let mut slot = start;
+        let mut rest = triangles;
+        while !rest.is_empty() {
+            let (chunk, offset) = ((slot / self.chunk) as usize, slot % self.chunk);
+            let n = ((self.chunk - offset) as usize).min(rest.len());
+            queue.write_buffer(
+                &self.chunks[chunk],
+                offset * 12,
+                bytemuck::cast_slice(&rest[..n]),
+            );
+            rest = &rest[n..];
+            slot += n as u64;
+        }
+    }
+
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, triangles: u64) {
+        for (i, buffer) in self.chunks.iter().enumerate() {
+            let first = i as u64 * self.chunk;
+            if first >= triangles {
+                break;
+            }
+            let n = (triangles - first).min(self.chunk) as u32;
+            pass.set_index_buffer(buffer.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..n * 3, 0, 0..1);
+        }
+    }
+}
+
 fn index_buffer(device: &wgpu::Device, triangles: u64) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("indices"),
         size: triangles.max(1) * 12,
-        usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+        usage: wgpu::BufferUsages::INDEX
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
     })
+}
+
+fn barycentric_pipeline(
+    device: &wgpu::Device,
+    color_format: wgpu::TextureFormat,
+    globals: &wgpu::BindGroupLayout,
+) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("wire_barycentric.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(WIRE_BARYCENTRIC_WGSL.into()),
+    });
+    let storage = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let pulled = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("barycentric wireframe"),
+        entries: &[storage(0), storage(1)],
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("barycentric wireframe"),
+        bind_group_layouts: &[Some(globals), Some(&pulled)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("barycentric wireframe"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &shader,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(false),
+            depth_compare: Some(wgpu::CompareFunction::LessEqual),
+            stencil: Default::default(),
+            bias: wgpu::DepthBiasState {
+                constant: -2,
+                slope_scale: -1.0,
+                clamp: 0.0,
+            },
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &shader,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: color_format,
+                blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    (pipeline, pulled)
 }
