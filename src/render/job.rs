@@ -44,6 +44,9 @@ pub struct FrameRecord {
     pub frame_ms: f64,
     pub psnr_db: Option<f64>,
     pub differing: Option<f64>,
+    /// With `compare`: the full mesh's GPU and wall time for the same frame.
+    pub full_gpu_ms: Option<f64>,
+    pub full_frame_ms: Option<f64>,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -56,6 +59,13 @@ pub struct Summary {
     pub refine_ms_median: f64,
     pub refine_ms_p95: f64,
     pub gpu_ms_median: Option<f64>,
+    pub gpu_ms_p95: Option<f64>,
+    pub frame_ms_median: f64,
+    pub frame_ms_p95: f64,
+    pub full_gpu_ms_median: Option<f64>,
+    pub full_gpu_ms_p95: Option<f64>,
+    pub full_frame_ms_median: Option<f64>,
+    pub full_frame_ms_p95: Option<f64>,
     pub upload_bytes_mean: f64,
     pub psnr_db_mean: Option<f64>,
     pub psnr_db_min: Option<f64>,
@@ -139,7 +149,10 @@ pub fn render_path(
             ..Default::default()
         };
         if let Some(full) = full.as_mut() {
-            let (reference, _) = frame(gpu, full, &target, &camera, &job.draw)?;
+            let t0 = Instant::now();
+            let (reference, full_gpu_ms) = frame(gpu, full, &target, &camera, &job.draw)?;
+            record.full_frame_ms = Some(t0.elapsed().as_secs_f64() * 1e3);
+            record.full_gpu_ms = full_gpu_ms;
             let Comparison {
                 psnr_db, differing, ..
             } = image_diff::compare(&image, &reference);
@@ -220,9 +233,19 @@ fn summarise(s: &mut Summary, records: &[FrameRecord]) {
     refine.sort_by(f64::total_cmp);
     s.refine_ms_median = percentile(&refine, 0.5);
     s.refine_ms_p95 = percentile(&refine, 0.95);
-    let mut gpu: Vec<f64> = records.iter().filter_map(|r| r.gpu_ms).collect();
-    gpu.sort_by(f64::total_cmp);
-    s.gpu_ms_median = (!gpu.is_empty()).then(|| percentile(&gpu, 0.5));
+    let sorted = |f: &dyn Fn(&FrameRecord) -> Option<f64>| {
+        let mut v: Vec<f64> = records.iter().filter_map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let median_p95 = |v: &[f64]| (!v.is_empty()).then(|| (percentile(v, 0.5), percentile(v, 0.95)));
+    let gpu = sorted(&|r| r.gpu_ms);
+    (s.gpu_ms_median, s.gpu_ms_p95) = median_p95(&gpu).unzip();
+    let wall = sorted(&|r| Some(r.frame_ms));
+    (s.frame_ms_median, s.frame_ms_p95) = median_p95(&wall).unwrap_or_default();
+    (s.full_gpu_ms_median, s.full_gpu_ms_p95) = median_p95(&sorted(&|r| r.full_gpu_ms)).unzip();
+    (s.full_frame_ms_median, s.full_frame_ms_p95) =
+        median_p95(&sorted(&|r| r.full_frame_ms)).unzip();
     s.upload_bytes_mean = records.iter().map(|r| r.upload_bytes as f64).sum::<f64>() / n;
     let psnr: Vec<f64> = records.iter().filter_map(|r| r.psnr_db).collect();
     if !psnr.is_empty() {
@@ -246,13 +269,13 @@ fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
     let mut out = Vec::new();
     writeln!(
         out,
-        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share"
+        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share,full_gpu_ms,full_frame_ms"
     )?;
     let opt = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.4}"));
     for r in records {
         writeln!(
             out,
-            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{}",
+            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{},{},{}",
             r.frame,
             r.time_s,
             r.triangles,
@@ -266,6 +289,8 @@ fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
             r.frame_ms,
             opt(r.psnr_db),
             opt(r.differing),
+            opt(r.full_gpu_ms),
+            opt(r.full_frame_ms),
         )?;
     }
     crate::export::write_atomic(file, &out)
