@@ -23,8 +23,9 @@ View-dependent level of detail for triangle meshes.
 
 vunify builds a binary vertex tree of vertex merges (vunify / vsplit, which may join any two vertices
 and so change topology) from a mesh or a whole scene, stores it as a .vtree file, and takes static
-levels of detail from it. Run without a command, it builds the tree of the bundled default model and
-prints its summary."
+levels of detail from it, refines it view-dependently every frame and renders it with wgpu. Run without
+a command, it builds the tree of the bundled default model and opens the viewer on it; with no display,
+it renders the default camera path headless instead."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -252,10 +253,11 @@ fn default_job() -> Result<()> {
     let out_dir = root.join("out");
     std::fs::create_dir_all(&out_dir)
         .with_context(|| format!("cannot create {}", out_dir.display()))?;
+    let tree_file = out_dir.join("cessna.vtree");
     println!("vunify: building the vertex tree of the default model {DEFAULT_MODEL}");
     build(BuildArgs {
         input,
-        output: Some(out_dir.join("cessna.vtree")),
+        output: Some(tree_file.clone()),
         metric: Metric::Qem,
         schedule: Schedule::Passes,
         pair_distance: BuildOptions::default().pair_distance,
@@ -265,7 +267,32 @@ fn default_job() -> Result<()> {
         w_feature: HybridWeights::default().feature,
         no_weld: false,
         json: false,
-    })
+    })?;
+    let display = ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()));
+    if !display {
+        println!(
+            "\nvunify: no display (DISPLAY and WAYLAND_DISPLAY are unset), so instead of the viewer it renders \
+             the default camera path headless"
+        );
+    }
+    let out = out_dir.join("default-path");
+    render(RenderArgs {
+        model: tree_file,
+        path: None,
+        out: out.clone(),
+        size: [1024, 768],
+        tau: 1.0,
+        budget: None,
+        every: 30,
+        fps: 30.0,
+        compare: false,
+        wireframe: false,
+        color_by: ColorChoice::Auto,
+    })?;
+    println!("look at {}", out.join("contact_sheet.png").display());
+    Ok(())
 }
 
 fn build(args: BuildArgs) -> Result<()> {
