@@ -5,6 +5,8 @@
 //! binary vertex tree of seed 001: its builder, file format and static extraction) → [`measure`]
 //! (Hausdorff distance). None of these touch a GPU.
 
+#[cfg(feature = "viewer")]
+pub mod app;
 pub mod export;
 pub mod measure;
 pub mod mesh;

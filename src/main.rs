@@ -55,6 +55,9 @@ enum Command {
     /// Render a camera path over a model headless (PNG frames, stats.csv, a contact sheet); with
     /// --compare, measure the LOD against the full mesh frame by frame.
     Render(RenderArgs),
+    /// Fly through a model in the interactive viewer (winit + egui); with no display, render the
+    /// default camera path headless instead.
+    View(ViewCliArgs),
     /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling).
     Measure {
         /// The reference mesh; distances are fractions of its bounding-box diagonal.
@@ -133,6 +136,25 @@ struct ExtractArgs {
     /// Output OBJ file (written atomically).
     #[arg(short, long)]
     output: PathBuf,
+}
+
+#[derive(Args)]
+struct ViewCliArgs {
+    /// The model: .vtree opens at once, a mesh (.obj, .ply, .off, optionally .xz) is built in the
+    /// background (and cached). Default: the bundled model.
+    model: Option<PathBuf>,
+    /// Run a script (JSON: frames, camera path, UI actions, screenshots; see src/app/script.rs) and exit.
+    #[arg(long)]
+    script: Option<PathBuf>,
+    /// Scripted shortcut: fly in over this many frames, then exit.
+    #[arg(long)]
+    frames: Option<u32>,
+    /// With --frames: save a screenshot (3D view and panel) of the last frame.
+    #[arg(long, requires = "frames")]
+    screenshot: Option<PathBuf>,
+    /// Window size, WIDTHxHEIGHT (default: the last one used).
+    #[arg(long, value_parser = parse_size)]
+    size: Option<[u32; 2]>,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -226,6 +248,7 @@ fn main() {
         Some(Command::Extract(args)) => extract(args),
         Some(Command::Path(args)) => path(args),
         Some(Command::Render(args)) => render(args),
+        Some(Command::View(args)) => view(args),
         Some(Command::Measure {
             original,
             simplified,
@@ -268,16 +291,33 @@ fn default_job() -> Result<()> {
         no_weld: false,
         json: false,
     })?;
-    let display = ["DISPLAY", "WAYLAND_DISPLAY"]
-        .iter()
-        .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()));
-    if !display {
-        println!(
-            "\nvunify: no display (DISPLAY and WAYLAND_DISPLAY are unset), so instead of the viewer it renders \
-             the default camera path headless"
-        );
+    if has_display() {
+        println!("vunify: opening the viewer (H for the keys)");
+        return view(ViewCliArgs {
+            model: Some(tree_file),
+            script: None,
+            frames: None,
+            screenshot: None,
+            size: None,
+        });
     }
-    let out = out_dir.join("default-path");
+    println!(
+        "\nvunify: no display (DISPLAY and WAYLAND_DISPLAY are unset), so instead of the viewer it renders \
+         the default camera path headless"
+    );
+    headless_default_path(&tree_file)
+}
+
+fn has_display() -> bool {
+    ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()))
+}
+
+fn headless_default_path(tree_file: &Path) -> Result<()> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = root.join("out").join("default-path");
+    let tree_file = tree_file.to_path_buf();
     render(RenderArgs {
         model: tree_file,
         path: None,
@@ -683,4 +723,36 @@ fn print_summary(s: &vunify::render::job::Summary, out: &Path) {
         );
     }
     println!("wrote      {} files in {}", s.written.len(), out.display());
+}
+
+fn view(args: ViewCliArgs) -> Result<()> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = args.model.unwrap_or_else(|| root.join(DEFAULT_MODEL));
+    if !has_display() {
+        println!(
+            "vunify: no display (DISPLAY and WAYLAND_DISPLAY are unset); rendering the default camera path \
+             headless instead"
+        );
+        let tree = load_tree(&model)?;
+        let file = std::env::temp_dir().join(format!("vunify-view-{}.vtree", std::process::id()));
+        vtree::write(&tree, &file)?;
+        let result = headless_default_path(&file);
+        let _ = std::fs::remove_file(&file);
+        return result;
+    }
+    let script = match (&args.script, args.frames) {
+        (Some(file), _) => {
+            Some(vunify::app::script::Script::load(file).map_err(anyhow::Error::msg)?)
+        }
+        (None, Some(frames)) => Some(vunify::app::script::Script::simple(
+            frames,
+            args.screenshot.clone(),
+        )),
+        (None, None) => None,
+    };
+    vunify::app::run(vunify::app::ViewArgs {
+        model,
+        script,
+        size: args.size,
+    })
 }

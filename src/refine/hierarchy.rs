@@ -327,6 +327,28 @@ impl Hierarchy {
         out
     }
 
+    /// The runtime id of every file node (`renumbering[file id]`), as [`Hierarchy::new`] numbers
+    /// them: leaves in depth-first order, internal nodes in pre-order.
+    pub fn renumbering(tree: &VertexTree) -> Vec<u32> {
+        let n = tree.leaf_count;
+        let mut out = vec![NIL; tree.nodes.len()];
+        let (mut next_leaf, mut next_internal) = (0u32, n);
+        let mut stack = vec![tree.root()];
+        while let Some(u) = stack.pop() {
+            if u < n {
+                out[u as usize] = next_leaf;
+                next_leaf += 1;
+            } else {
+                out[u as usize] = next_internal;
+                next_internal += 1;
+                let [c0, c1] = tree.nodes[u as usize].children;
+                stack.push(c1);
+                stack.push(c0);
+            }
+        }
+        out
+    }
+
     /// Every node, parents before children: internal nodes in pre-order, then the leaves.
     pub fn top_down(&self) -> impl Iterator<Item = u32> {
         (self.leaf_count..self.node_count()).chain(0..self.leaf_count)

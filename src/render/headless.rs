@@ -172,3 +172,61 @@ impl Offscreen {
         Ok(image::RgbaImage::from_raw(w, h, pixels).expect("the size matches"))
     }
 }
+
+/// Reads a whole 2D texture back as RGBA8 (an 8-bit RGBA or BGRA format, sRGB or not: the bytes as
+/// stored, swizzled to RGBA).
+pub fn read_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<image::RgbaImage, RenderError> {
+    let (w, h) = (texture.width(), texture.height());
+    let padded_row =
+        (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("texture readback"),
+        size: padded_row as u64 * h as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(h),
+            },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    let slice = buffer.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |_| {});
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let bgra = matches!(
+        texture.format(),
+        wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+    );
+    let mut pixels = Vec::with_capacity((w * h * 4) as usize);
+    {
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        for row in data.chunks(padded_row as usize).take(h as usize) {
+            for p in row[..(w * 4) as usize].chunks(4) {
+                if bgra {
+                    pixels.extend_from_slice(&[p[2], p[1], p[0], 255]);
+                } else {
+                    pixels.extend_from_slice(&[p[0], p[1], p[2], 255]);
+                }
+            }
+        }
+    }
+    buffer.unmap();
+    Ok(image::RgbaImage::from_raw(w, h, pixels).expect("the size matches"))
+}

@@ -208,8 +208,10 @@ pub fn frame(
         &gpu.device,
         &gpu.queue,
         &mut encoder,
-        &target.color_view,
-        &target.depth_view,
+        super::Target {
+            color: &target.color_view,
+            depth: &target.depth_view,
+        },
         camera,
         draw,
     );

@@ -9,7 +9,7 @@ pub mod job;
 pub mod renderer;
 
 pub use headless::{Gpu, Offscreen};
-pub use renderer::{ColorBy, DrawOptions, Renderer, UploadStats, WireMode};
+pub use renderer::{ColorBy, DrawOptions, Renderer, Target, UploadStats, WireMode};
 
 /// The GPU could not be used.
 #[derive(Debug, thiserror::Error)]

@@ -41,6 +41,11 @@ pub struct DrawOptions {
     pub background: [f64; 4],
     /// τ, for the error colouring.
     pub tolerance_px: f32,
+    /// Draw into this rectangle of the target only, `[x, y, width, height]` in pixels (the camera's
+    /// viewport should match its size). `None`: the whole target.
+    pub viewport: Option<[f32; 4]>,
+    /// Clear the target first; off to draw several viewports into one target.
+    pub clear: bool,
 }
 
 impl Default for DrawOptions {
@@ -51,8 +56,18 @@ impl Default for DrawOptions {
             wireframe: false,
             background: [0.02, 0.025, 0.035, 1.0],
             tolerance_px: 1.0,
+            viewport: None,
+            clear: true,
         }
     }
+}
+
+/// Where a frame is drawn: a colour view (of a format the renderer was made for) and a
+/// [`DEPTH_FORMAT`] view of the same size.
+#[derive(Clone, Copy)]
+pub struct Target<'a> {
+    pub color: &'a wgpu::TextureView,
+    pub depth: &'a wgpu::TextureView,
 }
 
 /// What one upload moved to the GPU.
@@ -396,11 +411,11 @@ impl Renderer {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
-        color: &wgpu::TextureView,
-        depth: &wgpu::TextureView,
+        target: Target<'_>,
         camera: &Camera,
         options: &DrawOptions,
     ) {
+        let Target { color, depth } = target;
         let view = View::new(camera);
         let forward = camera.forward();
         // A headlight, raised and to the left, so that shapes read from any side.
@@ -429,14 +444,22 @@ impl Renderer {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                    load: if options.clear {
+                        wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a })
+                    } else {
+                        wgpu::LoadOp::Load
+                    },
                     store: wgpu::StoreOp::Store,
                 },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: depth,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
+                    load: if options.clear {
+                        wgpu::LoadOp::Clear(1.0)
+                    } else {
+                        wgpu::LoadOp::Load
+                    },
                     store: wgpu::StoreOp::Store,
                 }),
                 stencil_ops: None,
@@ -455,6 +478,10 @@ impl Renderer {
         let Some(model) = self.model.as_ref().filter(|m| m.triangles > 0) else {
             return;
         };
+        if let Some([x, y, w, h]) = options.viewport {
+            pass.set_viewport(x, y, w, h, 0.0, 1.0);
+            pass.set_scissor_rect(x as u32, y as u32, w as u32, h as u32);
+        }
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, model.positions.slice(..));
         pass.set_vertex_buffer(1, model.normals.slice(..));

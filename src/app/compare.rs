@@ -1,0 +1,185 @@
+//! Seed 003's comparison tool: the same model in up to four viewports, one per merge metric, each a
+//! build-order cut at the same triangle count, which can sweep down and up; any viewport's cut can be
+//! exported as OBJ.
+
+use super::model::{LoadMessage, Loaded, spawn_load};
+use crate::mesh::{Mesh, Part};
+use crate::refine::{Front, Hierarchy};
+use crate::render::Renderer;
+use crate::simplify::Metric;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::Receiver;
+
+/// Seconds for a sweep from all triangles down to 1 % and back.
+pub const SWEEP_SECONDS: f32 = 8.0;
+
+pub struct Slot {
+    pub metric: Metric,
+    loading: Option<Receiver<LoadMessage>>,
+    pub progress: f32,
+    pub error: Option<String>,
+    pub ready: Option<Ready>,
+}
+
+pub struct Ready {
+    pub loaded: Loaded,
+    pub front: Front,
+    pub renderer: Renderer,
+    /// Hierarchy id of each internal node in build order.
+    build_order: Vec<u32>,
+    /// Merges applied to the front (the root alone: all of them).
+    merges: u32,
+}
+
+pub struct CompareView {
+    pub slots: Vec<Slot>,
+    pub target: u32,
+    pub sweep: bool,
+    sweep_time: f32,
+}
+
+impl CompareView {
+    /// Starts building the model's tree with every metric (cached builds open at once).
+    pub fn new(path: &Path, target: u32) -> CompareView {
+        let slots = [
+            Metric::EdgeLength,
+            Metric::QemMidpoint,
+            Metric::Qem,
+            Metric::Hybrid,
+        ]
+        .into_iter()
+        .map(|metric| Slot {
+            metric,
+            loading: Some(spawn_load(path.to_path_buf(), metric)),
+            progress: 0.0,
+            error: None,
+            ready: None,
+        })
+        .collect();
+        CompareView {
+            slots,
+            target,
+            sweep: false,
+            sweep_time: 0.0,
+        }
+    }
+
+    /// Receives finished builds; moves every ready front to the target triangle count.
+    pub fn update(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        format: wgpu::TextureFormat,
+        dt: f32,
+    ) {
+        for slot in &mut self.slots {
+            let Some(rx) = &slot.loading else { continue };
+            while let Ok(message) = rx.try_recv() {
+                match message {
+                    LoadMessage::Progress(share, _) => slot.progress = share,
+                    LoadMessage::Done(Ok(loaded)) => {
+                        let mut renderer = Renderer::new(device, format);
+                        renderer.set_hierarchy(device, queue, &loaded.hierarchy);
+                        let renumber = Hierarchy::renumbering(&loaded.tree);
+                        let n = loaded.tree.leaf_count;
+                        let build_order = (n..loaded.tree.nodes.len() as u32)
+                            .map(|u| renumber[u as usize])
+                            .collect::<Vec<_>>();
+                        let merges = build_order.len() as u32;
+                        slot.ready = Some(Ready {
+                            front: Front::new(&loaded.hierarchy),
+                            loaded,
+                            renderer,
+                            build_order,
+                            merges,
+                        });
+                    }
+                    LoadMessage::Done(Err(e)) => slot.error = Some(e),
+                }
+            }
+            if slot.ready.is_some() || slot.error.is_some() {
+                slot.loading = None;
+            }
+        }
+        let total = self
+            .slots
+            .iter()
+            .filter_map(|s| s.ready.as_ref())
+            .map(|r| r.loaded.tree.triangles.len() as u32)
+            .max()
+            .unwrap_or(0);
+        if self.sweep && total > 0 {
+            // Down to 1 % and back, geometrically, so that every level gets its share of time.
+            self.sweep_time = (self.sweep_time + dt) % SWEEP_SECONDS;
+            let phase = self.sweep_time / SWEEP_SECONDS;
+            let x = 1.0 - (2.0 * phase - 1.0).abs();
+            self.target = ((total as f32) * 0.01f32.powf(x)).round().max(1.0) as u32;
+        }
+        for ready in self.slots.iter_mut().filter_map(|s| s.ready.as_mut()) {
+            ready.set_triangles(self.target);
+            ready.renderer.upload(device, queue, &mut ready.front, &[]);
+        }
+    }
+}
+
+impl Ready {
+    /// The build-order cut with at most `target` triangles (the one with the fewest merges).
+    fn set_triangles(&mut self, target: u32) {
+        let tree = &self.loaded.tree;
+        let total = tree.triangles.len() as u32;
+        let offsets = &tree.vanish_offsets;
+        // Triangles left after m merges: total − offsets[m]; the fewest merges that reach the target.
+        let m = offsets
+            .partition_point(|&gone| total - gone > target)
+            .min(self.build_order.len()) as u32;
+        let h = &self.loaded.hierarchy;
+        while self.merges > m {
+            self.merges -= 1;
+            self.front.split(h, self.build_order[self.merges as usize]);
+        }
+        while self.merges < m {
+            self.front.unify(h, self.build_order[self.merges as usize]);
+            self.merges += 1;
+        }
+    }
+
+    /// Writes the current cut as OBJ into `dir`; returns the file.
+    pub fn export(&self, dir: &Path) -> Result<PathBuf, String> {
+        let h = &self.loaded.hierarchy;
+        let mut index = std::collections::HashMap::new();
+        let mut positions: Vec<Vec3> = Vec::new();
+        let mut triangles = Vec::new();
+        for t in self.front.indices() {
+            triangles.push(t.map(|u| {
+                *index.entry(u).or_insert_with(|| {
+                    positions.push(h.position[u as usize]);
+                    positions.len() as u32 - 1
+                })
+            }));
+        }
+        let mut mesh = Mesh::from_triangles(positions, triangles);
+        mesh.parts = vec![Part {
+            name: format!(
+                "{}-{}",
+                self.loaded.metric.name(),
+                self.front.triangle_count()
+            ),
+            triangles: 0..mesh.triangles.len() as u32,
+        }];
+        let stem = self
+            .loaded
+            .path
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_else(|| "model".into());
+        let file = dir.join(format!(
+            "{stem}-{}-{}.obj",
+            self.loaded.metric.name(),
+            self.front.triangle_count()
+        ));
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        crate::export::write_obj(&mesh, &file).map_err(|e| format!("{}: {e}", file.display()))?;
+        Ok(file)
+    }
+}

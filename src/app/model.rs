@@ -1,0 +1,124 @@
+//! Opening models without stalling the frame: a `.vtree` is read, a mesh is built, on a background
+//! thread that reports progress; built trees are cached in the user's cache directory, keyed by the
+//! file's content and the build options.
+
+use crate::mesh::{self, CleanOptions};
+use crate::refine::Hierarchy;
+use crate::simplify::Metric;
+use crate::vtree::{self, BuildOptions, VertexTree};
+use glam::Vec3;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, channel};
+
+/// A model ready to view.
+pub struct Loaded {
+    pub path: PathBuf,
+    pub metric: Metric,
+    pub tree: Arc<VertexTree>,
+    pub hierarchy: Arc<Hierarchy>,
+    pub center: Vec3,
+    pub radius: f32,
+    /// Read from the cache rather than built.
+    pub cached: bool,
+}
+
+pub enum LoadMessage {
+    /// Share done (0..1) and what is happening.
+    Progress(f32, String),
+    Done(Result<Loaded, String>),
+}
+
+/// Starts loading `path` (building its tree with `metric` if it is a mesh) on a new thread.
+pub fn spawn_load(path: PathBuf, metric: Metric) -> Receiver<LoadMessage> {
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        let progress = tx.clone();
+        let result = load(&path, metric, &mut |share, what| {
+            let _ = progress.send(LoadMessage::Progress(share, what.to_string()));
+        });
+        let _ = tx.send(LoadMessage::Done(result));
+    });
+    rx
+}
+
+/// Loads synchronously (the background thread's body; scripts and tests call it directly).
+pub fn load(
+    path: &Path,
+    metric: Metric,
+    progress: &mut dyn FnMut(f32, &str),
+) -> Result<Loaded, String> {
+    let is_vtree = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vtree"));
+    let (tree, cached) = if is_vtree {
+        progress(0.0, "reading the tree");
+        (vtree::read(path).map_err(|e| e.to_string())?, false)
+    } else {
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let cache = cache_file(&bytes, metric);
+        match cache.as_deref().and_then(|c| vtree::read(c).ok()) {
+            Some(tree) => (tree, true),
+            None => {
+                progress(0.0, "reading the mesh");
+                let (m, _) =
+                    mesh::load(path, &CleanOptions::default()).map_err(|e| e.to_string())?;
+                let options = BuildOptions {
+                    metric,
+                    ..Default::default()
+                };
+                let (tree, _) = vtree::build(&m, &options, &mut |done, total| {
+                    progress(
+                        done as f32 / total.max(1) as f32,
+                        "building the vertex tree",
+                    );
+                })
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+                if let Some(c) = &cache {
+                    if let Some(dir) = c.parent() {
+                        let _ = std::fs::create_dir_all(dir);
+                    }
+                    let _ = vtree::write(&tree, c);
+                }
+                (tree, false)
+            }
+        }
+    };
+    progress(1.0, "preparing the runtime");
+    let hierarchy = Hierarchy::new(&tree);
+    let leaves = &hierarchy.position[..hierarchy.leaf_count as usize];
+    let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+    let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+    Ok(Loaded {
+        path: path.to_path_buf(),
+        metric,
+        tree: Arc::new(tree),
+        hierarchy: Arc::new(hierarchy),
+        center: (lo + hi) * 0.5,
+        radius: ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),
+        cached,
+    })
+}
+
+/// Where the tree of a mesh with these bytes, built with `metric` and default options by this
+/// version of vunify, is cached.
+fn cache_file(bytes: &[u8], metric: Metric) -> Option<PathBuf> {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    bytes.hash(&mut h);
+    format!(
+        "{:?}",
+        BuildOptions {
+            metric,
+            ..Default::default()
+        }
+    )
+    .hash(&mut h);
+    env!("CARGO_PKG_VERSION").hash(&mut h);
+    vtree::FORMAT_VERSION.hash(&mut h);
+    Some(dirs::cache_dir()?.join("vunify").join(format!(
+        "{:016x}-{}.vtree",
+        h.finish(),
+        metric.name()
+    )))
+}

@@ -1,0 +1,181 @@
+//! The viewer under Xvfb on lavapipe: a scripted run plays a camera path and a few UI actions, takes a
+//! screenshot and exits; the screenshot shows the panel and the model, and the statistics moved. In CI
+//! (`CI` set) a missing Xvfb or GPU fails the test instead of skipping it.
+#![cfg(feature = "viewer")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A private X server on a free display number, or `None` (skipping) outside CI without Xvfb.
+fn xvfb() -> Option<Xvfb> {
+    for n in 90..140 {
+        if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
+            || Path::new(&format!("/tmp/.X{n}-lock")).exists()
+        {
+            continue;
+        }
+        let display = format!(":{n}");
+        let child = match Command::new("Xvfb")
+            .args([
+                display.as_str(),
+                "-screen",
+                "0",
+                "1280x800x24",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+        {
+            Ok(c) => c,
+            Err(e) if std::env::var_os("CI").is_some() => panic!("CI has no Xvfb: {e}"),
+            Err(e) => {
+                eprintln!("skipping: cannot start Xvfb ({e}); scripts/test.sh installs it");
+                return None;
+            }
+        };
+        // Wait for the server's socket.
+        for _ in 0..100 {
+            if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
+                return Some(Xvfb { child, display });
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        panic!("Xvfb {display} did not start");
+    }
+    panic!("no free X display number");
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vunify-app-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn scripted_run_shows_the_model_and_the_panel() {
+    let Some(x) = xvfb() else { return };
+    let shot = tmp("view.png");
+    let stats = tmp("stats.json");
+    let script = tmp("script.json");
+    std::fs::write(
+        &script,
+        serde_json::json!({
+            "frames": 60,
+            "path": "fly-in",
+            "actions": [
+                {"frame": 20, "wireframe": true},
+                {"frame": 40, "tau": 2.0},
+                {"frame": 59, "screenshot": shot},
+            ],
+            "stats": stats,
+        })
+        .to_string(),
+    )
+    .unwrap();
+    let runtime = tempdir_0700();
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args([
+            "view",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj"),
+            "--size",
+            "1024x640",
+            "--script",
+        ])
+        .arg(&script)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        // Settings and the tree cache go to a private home, not the user's.
+        .env("HOME", &runtime)
+        .env("XDG_CONFIG_HOME", runtime.join("config"))
+        .env("XDG_CACHE_HOME", runtime.join("cache"))
+        .output()
+        .expect("run vunify view");
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let image = image::open(&shot).expect("the screenshot").to_rgba8();
+    assert_eq!(image.dimensions(), (1024, 640));
+    // The panel (left 290 points at scale 1): egui's grey, with light text on it.
+    let panel_px = (0..640).flat_map(|y| (0..280).map(move |x| (x, y)));
+    let (mut text, mut panel) = (0, 0);
+    for (x, y) in panel_px {
+        let p = image.get_pixel(x, y);
+        panel += 1;
+        text += (p[0] > 150 && p[1] > 150 && p[2] > 150) as u32;
+    }
+    let share = text as f64 / panel as f64;
+    assert!(
+        share > 0.01 && share < 0.5,
+        "panel text covers {:.1} % of the panel",
+        share * 100.0
+    );
+    // The 3D view: the light-grey model over the dark background.
+    let (mut model, mut total) = (0, 0);
+    for y in 0..640 {
+        for x in 300..1024 {
+            let p = image.get_pixel(x, y);
+            total += 1;
+            model += (p[0] > 90 && p[1] > 90 && p[2] > 90) as u32;
+        }
+    }
+    let share = model as f64 / total as f64;
+    assert!(
+        share > 0.02,
+        "the model covers only {:.2} % of the 3D view",
+        share * 100.0
+    );
+
+    // Statistics: one line a frame; the front refines as the camera flies in.
+    let lines: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(lines.len(), 60);
+    let triangles = |i: usize| lines[i]["stats"]["triangles"].as_u64().unwrap();
+    assert!(triangles(0) > 0);
+    assert!(
+        triangles(39) > triangles(1),
+        "flying in refines: {} then {}",
+        triangles(1),
+        triangles(39)
+    );
+    assert!(
+        triangles(41) < triangles(39),
+        "τ 1 → 2 coarsens: {} then {}",
+        triangles(39),
+        triangles(41)
+    );
+    eprintln!(
+        "triangles: frame 1 {}, 39 {}, 41 {}",
+        triangles(1),
+        triangles(39),
+        triangles(41)
+    );
+}
+
+fn tempdir_0700() -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let d = tmp("runtime");
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o700)).unwrap();
+    d
+}
