@@ -72,12 +72,15 @@ fn scripted_run_shows_the_model_and_the_panel() {
     let shot = tmp("view.png");
     let stats = tmp("stats.json");
     let script = tmp("script.json");
+    let bad = tmp("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();
     std::fs::write(
         &script,
         serde_json::json!({
             "frames": 60,
             "path": "fly-in",
             "actions": [
+                {"frame": 2, "open": bad},
                 {"frame": 20, "wireframe": true},
                 {"frame": 40, "tau": 2.0},
                 {"frame": 59, "screenshot": shot},
@@ -147,8 +150,17 @@ fn scripted_run_shows_the_model_and_the_panel() {
     );
 
     // Statistics: one line a frame; the front refines as the camera flies in.
-    let lines: Vec<serde_json::Value> =
+    let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let lines = report["frames"].as_array().unwrap();
+    // The bad file was reported (with its name and line) and the viewer went on.
+    let errors = report["errors"].as_array().unwrap();
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.as_str().unwrap().contains("bad.obj") && e.as_str().unwrap().contains(":3")),
+        "{errors:?}"
+    );
     assert_eq!(lines.len(), 60);
     let triangles = |i: usize| lines[i]["stats"]["triangles"].as_u64().unwrap();
     assert!(triangles(0) > 0);

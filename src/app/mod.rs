@@ -54,8 +54,10 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     }
     if args.script.is_some() {
         // Scripted runs start from the defaults, so that their pictures do not depend on the user.
+        // Without vsync, so that a scripted run measures how fast frames can be made.
         settings = ViewerSettings {
             window: settings.window,
+            vsync: false,
             ..Default::default()
         };
     }
@@ -124,6 +126,8 @@ pub struct ViewState {
     pub frozen: Option<Camera>,
     pub history: VecDeque<FrameLine>,
     pub all_frames: Vec<FrameLine>,
+    /// Every error shown, for scripted runs' statistics.
+    pub error_log: Vec<String>,
     pub playback: Option<Playback>,
     pub recording: Option<Recording>,
     pub compare: Option<CompareView>,
@@ -224,6 +228,7 @@ impl App {
             frozen: None,
             history: VecDeque::new(),
             all_frames: Vec::new(),
+            error_log: Vec::new(),
             playback: None,
             recording: None,
             compare: None,
@@ -517,7 +522,10 @@ fn frame(r: &mut Running, settings: &mut ViewerSettings) -> anyhow::Result<bool>
                     settings.remember(path);
                     install(gfx, view, loaded, settings);
                 }
-                Err(e) => view.error = Some(e),
+                Err(e) => {
+                    view.error_log.push(e.clone());
+                    view.error = Some(e);
+                }
             }
         }
     }
@@ -684,7 +692,10 @@ fn frame(r: &mut Running, settings: &mut ViewerSettings) -> anyhow::Result<bool>
     view.frame_index += 1;
     if script_done {
         if let Some(file) = r.script.as_ref().and_then(|s| s.stats.clone()) {
-            let json = serde_json::to_string_pretty(&view.all_frames)?;
+            let json = serde_json::to_string_pretty(&serde_json::json!({
+                "frames": view.all_frames,
+                "errors": view.error_log,
+            }))?;
             crate::export::write_atomic(&file, json.as_bytes())?;
         }
         return Ok(false);
