@@ -293,8 +293,9 @@ fn default_job() -> Result<()> {
     })?;
     if has_display() {
         println!("vunify: opening the viewer (H for the keys)");
+        // The mesh rather than the .vtree, so that the compare view can build the other metrics.
         return view(ViewCliArgs {
-            model: Some(tree_file),
+            model: Some(root.join(DEFAULT_MODEL)),
             script: None,
             frames: None,
             screenshot: None,
