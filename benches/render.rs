@@ -4,7 +4,6 @@
 //!
 //! `cargo bench --bench render [-- --model dragon --seconds 10 --fps 10 --tau 1 --size 1024x768]`
 
-use std::path::PathBuf;
 use vunify::mesh::CleanOptions;
 use vunify::path::CameraPath;
 use vunify::refine::{Hierarchy, Settings};
@@ -12,30 +11,18 @@ use vunify::render::job::{RenderJob, render_path};
 use vunify::render::{DrawOptions, Gpu};
 use vunify::vtree::{self, BuildOptions};
 
+mod common;
+use common::arg;
+
 fn main() {
-    let argv: Vec<String> = std::env::args().collect();
-    let arg = |name: &str, default: &str| {
-        argv.iter()
-            .position(|a| a == name)
-            .and_then(|i| argv.get(i + 1).cloned())
-            .unwrap_or_else(|| default.to_string())
-    };
-    let model = match arg("--model", "dragon").as_str() {
-        "dragon" => "stanford-dragon.obj.xz".to_string(),
-        "bunny" => "stanford-bunny.obj".to_string(),
-        m => m.to_string(),
-    };
+    let model = common::model_file(&arg("--model", "dragon"));
     let seconds: f32 = arg("--seconds", "10").parse().unwrap();
     let fps: f32 = arg("--fps", "10").parse().unwrap();
     let tau: f32 = arg("--tau", "1").parse().unwrap();
     let size = arg("--size", "1024x768");
     let (w, h) = size.split_once('x').unwrap();
     let size = [w.parse().unwrap(), h.parse().unwrap()];
-    let dir = PathBuf::from(
-        std::env::var_os("VUNIFY_MODELS").unwrap_or_else(|| "../shared/models".into()),
-    );
-
-    let (mesh, _) = vunify::mesh::load(&dir.join(&model), &CleanOptions::default()).unwrap();
+    let (mesh, _) = vunify::mesh::load(&model, &CleanOptions::default()).unwrap();
     let (tree, _) = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {}).unwrap();
     let hierarchy = Hierarchy::new(&tree);
     let (lo, hi) = mesh.bounds();
@@ -58,6 +45,7 @@ fn main() {
     };
     let s = render_path(&gpu, &hierarchy, &path, &job, &mut |_, _| {}).unwrap();
     let o = |x: Option<f64>| x.map_or("n/a".to_string(), |v| format!("{v:.1}"));
+    let model = model.display();
     println!(
         "# render bench: {model}, fly-in {seconds} s at {fps} fps ({} frames), {}x{}, tau = {tau} px, {}",
         s.frames, size[0], size[1], s.adapter

@@ -8,19 +8,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+mod common;
+use common::arg;
+
 fn main() {
-    let argv: Vec<String> = std::env::args().collect();
-    let arg = |name: &str, default: &str| {
-        argv.iter()
-            .position(|a| a == name)
-            .and_then(|i| argv.get(i + 1).cloned())
-            .unwrap_or_else(|| default.to_string())
-    };
-    let model = match arg("--model", "dragon").as_str() {
-        "dragon" => "stanford-dragon.obj.xz".to_string(),
-        "bunny" => "stanford-bunny.obj".to_string(),
-        m => m.to_string(),
-    };
+    let model = common::model_file(&arg("--model", "dragon"));
     let frames: u32 = arg("--frames", "150").parse().unwrap();
     let dir = PathBuf::from(
         std::env::var_os("VUNIFY_MODELS").unwrap_or_else(|| "../shared/models".into()),
@@ -66,6 +58,7 @@ fn main() {
         rows.push((name, summarize(&stats)));
     }
     let _ = xvfb.kill();
+    let _ = xvfb.wait();
     println!(
         "# viewer bench: {}, fly-in over {frames} frames at 1280x720 (Xvfb, lavapipe); first 10 frames left out",
         model.display()

@@ -1,22 +1,8 @@
 // The mesh pass: one vertex per tree node (position, octahedral normal, colour, and the node's
 // object-space error and depth for debug colouring); lit shading, vertex colours, or a debug colouring.
-// `Globals` mirrors `vunify::render::gpu_data::Globals` (size asserted there).
+// `Globals` and `g` come from globals.wgsl, prepended when the shader is built.
 
-struct Globals {
-    clip_from_world: mat4x4<f32>,
-    // xyz: the eye; w: pixels per unit of length at distance 1 (height / (2 tan(fov / 2))).
-    eye: vec4<f32>,
-    // xyz: direction towards the light (world); w: ambient share.
-    light: vec4<f32>,
-    // x: τ in pixels (debug error colouring); y: near plane; zw: unused.
-    params: vec4<f32>,
-    // x: colour mode (0 shaded, 1 vertex colours, 2 tree depth, 3 projected error);
-    // y: flat shading (1) or smooth (0); z: 1 for the wireframe pass; w: unused.
-    modes: vec4<u32>,
-    wire_color: vec4<f32>,
-}
 
-@group(0) @binding(0) var<uniform> g: Globals;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,

@@ -1,18 +1,9 @@
 // Wireframe without line polygons (adapters lacking POLYGON_MODE_LINE): vertex pulling from the index
 // and position buffers, so that each triangle corner gets its own barycentric coordinate, and edges
 // drawn where one coordinate is near zero, about a pixel wide, blended over the filled surface.
-// `Globals` mirrors `vunify::render::gpu_data::Globals`.
+// `Globals` and `g` come from globals.wgsl, prepended when the shader is built.
 
-struct Globals {
-    clip_from_world: mat4x4<f32>,
-    eye: vec4<f32>,
-    light: vec4<f32>,
-    params: vec4<f32>,
-    modes: vec4<u32>,
-    wire_color: vec4<f32>,
-}
 
-@group(0) @binding(0) var<uniform> g: Globals;
 // Node positions, three floats each (a vec3 array would be padded to 16 bytes).
 @group(1) @binding(0) var<storage, read> positions: array<f32>;
 // One chunk of the index buffer: three node ids per triangle.

@@ -42,6 +42,15 @@ fn cessna() -> VertexTree {
     tree_of(&mesh)
 }
 
+/// The bundled cessna ready to render: its runtime hierarchy and an orbit at `radii` of its bounding
+/// radius.
+fn cessna_orbit(radii: f32) -> (Hierarchy, CameraPath) {
+    let h = Hierarchy::new(&cessna());
+    let (c, r) = bounds(&h);
+    let path = CameraPath::orbit(c, r * radii, 2.0);
+    (h, path)
+}
+
 fn bounds(h: &Hierarchy) -> (Vec3, f32) {
     let leaves = &h.position[..h.leaf_count as usize];
     let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
@@ -195,10 +204,7 @@ const LOD_DIFFERING: f64 = 0.025;
 #[test]
 fn rendering_is_deterministic() {
     let Some(gpu) = gpu() else { return };
-    let tree = cessna();
-    let h = Hierarchy::new(&tree);
-    let (c, r) = bounds(&h);
-    let path = CameraPath::orbit(c, r, 2.0);
+    let (h, path) = cessna_orbit(1.0);
     let a = render(&gpu, &h, &path, 0.7, [256, 192], Some(Settings::default())).0;
     let b = render(&gpu, &h, &path, 0.7, [256, 192], Some(Settings::default())).0;
     assert!(a == b, "two renders of one frame differ");
@@ -209,10 +215,7 @@ fn rendering_is_deterministic() {
 #[test]
 fn resizing() {
     let Some(gpu) = gpu() else { return };
-    let tree = cessna();
-    let h = Hierarchy::new(&tree);
-    let (c, r) = bounds(&h);
-    let path = CameraPath::orbit(c, r, 2.0);
+    let (h, path) = cessna_orbit(1.0);
     let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
     renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
     let mut refiner = Refiner::new(&h, Settings::default());
@@ -248,10 +251,7 @@ fn resizing() {
 #[test]
 fn an_empty_front_draws_the_background() {
     let Some(gpu) = gpu() else { return };
-    let tree = cessna();
-    let h = Hierarchy::new(&tree);
-    let (c, r) = bounds(&h);
-    let path = CameraPath::orbit(c, r, 2.0);
+    let (h, path) = cessna_orbit(1.0);
     let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
     renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
     let mut front = Front::new(&h); // the root alone: no triangle
@@ -297,15 +297,17 @@ fn tiny_and_huge_coordinates() {
     }
 }
 
-/// Every shader in `shaders/` parses and validates with naga, on the CPU.
+/// Every shader in `shaders/` parses and validates with naga, on the CPU, as the renderer builds it
+/// (`globals.wgsl` first); and the renderer's sources are exactly those files.
 #[test]
 fn shaders_validate() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let globals = std::fs::read_to_string(dir.join("globals.wgsl")).unwrap();
     let mut count = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "wgsl") {
-            let source = std::fs::read_to_string(&path).unwrap();
+        if path.extension().is_some_and(|e| e == "wgsl") && !path.ends_with("globals.wgsl") {
+            let source = globals.clone() + &std::fs::read_to_string(&path).unwrap();
             let module = naga::front::wgsl::parse_str(&source)
                 .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
             naga::valid::Validator::new(
@@ -314,10 +316,19 @@ fn shaders_validate() {
             )
             .validate(&module)
             .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+            assert!(
+                [
+                    vunify::render::renderer::MESH_WGSL,
+                    vunify::render::renderer::WIRE_BARYCENTRIC_WGSL
+                ]
+                .contains(&source.as_str()),
+                "{} is not what the renderer builds",
+                path.display()
+            );
             count += 1;
         }
     }
-    assert!(count >= 1);
+    assert_eq!(count, 2);
 }
 
 /// `vunify render` over a whole (short) path writes frames, statistics and a contact sheet.

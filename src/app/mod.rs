@@ -865,44 +865,45 @@ fn draw_frame(
     let egui_buffers =
         egui_renderer.update_buffers(device, queue, &mut encoder, paint_jobs, screen);
     {
-        let mut pass = encoder
-            .begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("egui"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: ui_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            })
-            .forget_lifetime();
-        egui_renderer.render(&mut pass, paint_jobs, screen);
+        let mut ui_pass =
+            pass(&mut encoder, "egui", ui_view, wgpu::LoadOp::Load, None).forget_lifetime();
+        egui_renderer.render(&mut ui_pass, paint_jobs, screen);
     }
     queue.submit(egui_buffers.into_iter().chain([encoder.finish()]));
 }
 
 fn clear(encoder: &mut wgpu::CommandEncoder, color: &wgpu::TextureView, depth: &wgpu::TextureView) {
     let [r, g, b, a] = DrawOptions::default().background;
+    pass(
+        encoder,
+        "clear",
+        color,
+        wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+        Some(depth),
+    );
+}
+
+/// A render pass over `color` (loaded or cleared) and, when given, a cleared depth buffer.
+fn pass<'a>(
+    encoder: &'a mut wgpu::CommandEncoder,
+    label: &str,
+    color: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+    depth: Option<&wgpu::TextureView>,
+) -> wgpu::RenderPass<'a> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("clear"),
+        label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view: color,
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                load,
                 store: wgpu::StoreOp::Store,
             },
         })],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: depth,
+        depth_stencil_attachment: depth.map(|view| wgpu::RenderPassDepthStencilAttachment {
+            view,
             depth_ops: Some(wgpu::Operations {
                 load: wgpu::LoadOp::Clear(1.0),
                 store: wgpu::StoreOp::Store,
@@ -912,7 +913,7 @@ fn clear(encoder: &mut wgpu::CommandEncoder, color: &wgpu::TextureView, depth: &
         timestamp_writes: None,
         occlusion_query_set: None,
         multiview_mask: None,
-    });
+    })
 }
 
 /// The frame as the window shows it (3D and UI), rendered again offscreen and read back.

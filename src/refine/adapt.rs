@@ -290,34 +290,25 @@ impl Refiner {
 
     /// The reverse geomorph: both children move to the parent's position, then unify.
     fn start_unify(&mut self, h: &Hierarchy, p: u32) {
-        let to = h.position[p as usize];
-        for c in h.children(p) {
-            let from = self.displayed(h, c);
-            self.morphs.insert(
-                c,
-                Morph {
-                    from,
-                    to,
-                    frame: 0,
-                    unify_into: p,
-                },
-            );
-        }
+        self.morph_children(h, p, true);
     }
 
     /// The parent is wanted again halfway through a reverse geomorph: the children go back.
     fn cancel_unify(&mut self, h: &Hierarchy, p: u32) {
+        self.morph_children(h, p, false);
+    }
+
+    /// Starts both children of `p` moving from where they are drawn now towards the parent
+    /// (`inwards`, then unify) or back to their own positions.
+    fn morph_children(&mut self, h: &Hierarchy, p: u32, inwards: bool) {
         for c in h.children(p) {
-            let from = self.displayed(h, c);
-            self.morphs.insert(
-                c,
-                Morph {
-                    from,
-                    to: h.position[c as usize],
-                    frame: 0,
-                    unify_into: NIL,
-                },
-            );
+            let morph = Morph {
+                from: self.displayed(h, c),
+                to: h.position[if inwards { p } else { c } as usize],
+                frame: 0,
+                unify_into: if inwards { p } else { NIL },
+            };
+            self.morphs.insert(c, morph);
         }
     }
 

@@ -129,9 +129,15 @@ fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 4] {
 }
 
 /// The WGSL of the mesh pass (also validated on the CPU by a test).
-pub const MESH_WGSL: &str = include_str!("../../shaders/mesh.wgsl");
+pub const MESH_WGSL: &str = concat!(
+    include_str!("../../shaders/globals.wgsl"),
+    include_str!("../../shaders/mesh.wgsl")
+);
 /// The WGSL of the barycentric wireframe fallback.
-pub const WIRE_BARYCENTRIC_WGSL: &str = include_str!("../../shaders/wire_barycentric.wgsl");
+pub const WIRE_BARYCENTRIC_WGSL: &str = concat!(
+    include_str!("../../shaders/globals.wgsl"),
+    include_str!("../../shaders/wire_barycentric.wgsl")
+);
 
 /// How the wireframe overlay is drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
