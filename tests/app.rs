@@ -72,6 +72,7 @@ fn scripted_run_shows_the_model_and_the_panel() {
     let shot = tmp("view.png");
     let stats = tmp("stats.json");
     let script = tmp("script.json");
+    let recorded = tmp("recorded.json");
     let bad = tmp("bad.obj");
     std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();
     std::fs::write(
@@ -81,6 +82,8 @@ fn scripted_run_shows_the_model_and_the_panel() {
             "path": "fly-in",
             "actions": [
                 {"frame": 2, "open": bad},
+                {"frame": 5, "record": recorded},
+                {"frame": 50, "record": null},
                 {"frame": 20, "wireframe": true},
                 {"frame": 40, "tau": 2.0},
                 {"frame": 59, "screenshot": shot},
@@ -148,6 +151,10 @@ fn scripted_run_shows_the_model_and_the_panel() {
         "the model covers only {:.2} % of the 3D view",
         share * 100.0
     );
+
+    // The recorded camera path is one `vunify render --path` reads.
+    let path = vunify::path::CameraPath::load(&recorded).expect("the recorded path");
+    assert!(!path.keyframes.is_empty());
 
     // Statistics: one line a frame; the front refines as the camera flies in.
     let report: serde_json::Value =

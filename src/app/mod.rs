@@ -756,7 +756,45 @@ fn apply(what: &What, view: &mut ViewState, settings: &mut ViewerSettings) {
             }
         }
         What::Open(path) => view.open(path.clone()),
+        What::Record(Some(file)) => {
+            view.record_text = file.display().to_string();
+            view.recording = Some(Recording {
+                keyframes: Vec::new(),
+                started: Instant::now(),
+            });
+        }
+        What::Record(None) => stop_recording(view),
         What::Screenshot(path) => view.screenshot = Some(path.clone()),
+    }
+}
+
+/// Ends the recording and writes it where the panel says (a path `vunify render --path` replays).
+pub(crate) fn stop_recording(view: &mut ViewState) {
+    let Some(rec) = view.recording.take() else {
+        return;
+    };
+    let path = CameraPath {
+        keyframes: rec.keyframes,
+    };
+    let file = PathBuf::from(view.record_text.trim());
+    if let Some(dir) = file.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    let written = path.validate().and_then(|_| {
+        crate::export::write_atomic(&file, path.to_json().as_bytes()).map_err(|e| e.to_string())
+    });
+    match written {
+        Ok(()) => {
+            view.message = Some(format!(
+                "wrote {} (vunify render --path replays it)",
+                file.display()
+            ))
+        }
+        Err(e) => {
+            let e = format!("{}: {e}", file.display());
+            view.error_log.push(e.clone());
+            view.error = Some(e);
+        }
     }
 }
 

@@ -62,6 +62,8 @@ pub enum What {
     CompareTriangles(u32),
     Open(PathBuf),
     Screenshot(PathBuf),
+    /// Start recording the camera into this file; `null` stops and writes it.
+    Record(Option<PathBuf>),
 }
 
 impl Script {

@@ -3,7 +3,6 @@
 
 use super::settings::ViewerSettings;
 use super::{Recording, ViewState, apply, start_playback, toggle_compare};
-use crate::path::CameraPath;
 use crate::refine::Camera;
 use crate::render::ColorBy;
 use egui::{Color32, RichText, Ui};
@@ -237,26 +236,7 @@ fn path_section(ui: &mut Ui, view: &mut ViewState) {
         Some(rec) => {
             ui.label(format!("recording: {} keyframes", rec.keyframes.len()));
             if ui.button("stop and save").clicked() {
-                let rec = view.recording.take().expect("recording");
-                let path = CameraPath {
-                    keyframes: rec.keyframes,
-                };
-                let file = PathBuf::from(view.record_text.trim());
-                if let Some(dir) = file.parent() {
-                    let _ = std::fs::create_dir_all(dir);
-                }
-                match path.validate().map_err(|e| e.to_string()).and_then(|_| {
-                    crate::export::write_atomic(&file, path.to_json().as_bytes())
-                        .map_err(|e| e.to_string())
-                }) {
-                    Ok(()) => {
-                        view.message = Some(format!(
-                            "wrote {} (vunify render --path replays it)",
-                            file.display()
-                        ))
-                    }
-                    Err(e) => view.error = Some(format!("{}: {e}", file.display())),
-                }
+                super::stop_recording(view);
             }
         }
     });
