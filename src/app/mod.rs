@@ -617,22 +617,31 @@ fn frame(r: &mut Running, settings: &mut ViewerSettings) -> anyhow::Result<bool>
     // UI.
     let t0 = Instant::now();
     let input = gfx.egui_state.take_egui_input(&gfx.window);
-    let full = gfx
+    let egui::FullOutput {
+        platform_output,
+        textures_delta: mut textures,
+        shapes,
+        pixels_per_point,
+        ..
+    } = gfx
         .egui_ctx
         .run_ui(input, |ui| ui::panel(ui, view, settings, &camera));
     gfx.egui_state
-        .handle_platform_output(&gfx.window, full.platform_output);
-    let paint_jobs = gfx.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
-    line.ui_ms = t0.elapsed().as_secs_f64() * 1e3;
-    for (id, deltas) in &full.textures_delta.set {
+        .handle_platform_output(&gfx.window, platform_output);
+    let paint_jobs = gfx.egui_ctx.tessellate(shapes, pixels_per_point);
+    // Texture uploads now, frees after drawing; egui checks in debug builds that none is dropped.
+    for (id, deltas) in &textures.set {
         for delta in deltas {
             gfx.egui_renderer
                 .update_texture(&gfx.gpu.device, &gfx.gpu.queue, *id, delta);
         }
     }
+    let frees = std::mem::take(&mut textures.free);
+    textures.clear();
+    line.ui_ms = t0.elapsed().as_secs_f64() * 1e3;
     let screen = egui_wgpu::ScreenDescriptor {
         size_in_pixels: size,
-        pixels_per_point: full.pixels_per_point,
+        pixels_per_point,
     };
 
     // Draw: the window, and the same frame offscreen for a screenshot.
@@ -673,7 +682,7 @@ fn frame(r: &mut Running, settings: &mut ViewerSettings) -> anyhow::Result<bool>
         crate::render::job::save(&shot, &file)?;
         view.message = Some(format!("wrote {}", file.display()));
     }
-    for id in &full.textures_delta.free {
+    for id in &frees {
         gfx.egui_renderer.free_texture(id);
     }
 
