@@ -39,7 +39,7 @@ cargo check --benches --examples --locked   # must keep compiling; they run with
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 cargo test --doc --locked 2>&1 | tee "$log"
-cargo test --lib --bins --tests --locked 2>&1 | tee -a "$log"
+cargo test --lib --bins --tests --locked --no-fail-fast 2>&1 | tee -a "$log"
 # One closing line over every test binary above.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($i ~ /^passed/) p += $(i-1); if ($i ~ /^failed/) f += $(i-1) } }
      END { printf "%d passed, %d failed\n", p, f }' "$log"

@@ -58,8 +58,6 @@ struct Record {
     next: [u32; 3],
     /// Its input corners (leaves), kept here because every operation on the triangle reads them.
     input: [u32; 3],
-    /// The input triangle (index into [`Hierarchy::triangles`]).
-    triangle: u32,
     /// Its draw slot, or `HIDDEN`, `DYING`, `DEAD`.
     slot: u32,
 }
@@ -80,9 +78,6 @@ pub struct Front {
     active_head: Vec<u32>,
     records: Vec<Record>,
     free_records: Vec<u32>,
-    /// Per input triangle: where its outside corner (corner 2) was last seen on the front, an ancestor
-    /// of that leaf; a reappearing triangle looks for the corner from there, a step or two away.
-    outside_hint: Vec<u32>,
     /// Drawn triangles as node ids, packed, and the record behind each.
     indices: Vec<[u32; 3]>,
     slot_record: Vec<u32>,
@@ -112,7 +107,6 @@ impl Front {
             active_head: vec![NIL],
             records: Vec::new(),
             free_records: Vec::new(),
-            outside_hint: h.triangles.iter().map(|t| t[2]).collect(),
             indices: Vec::new(),
             slot_record: Vec::new(),
             dirty: Vec::new(),
@@ -196,7 +190,6 @@ impl Front {
             + self.active_head.capacity() * 4
             + self.records.capacity() * size_of::<Record>()
             + self.free_records.capacity() * 4
-            + self.outside_hint.capacity() * 4
             + self.indices.capacity() * size_of::<[u32; 3]>()
             + self.slot_record.capacity() * 4
             + self.dirty.capacity() * 8
@@ -238,10 +231,12 @@ impl Front {
         *head = r;
     }
 
-    /// The active node standing for `leaf`, starting from `from`, an ancestor of it (or itself).
-    fn find_active(&self, h: &Hierarchy, from: u32, leaf: u32) -> u32 {
-        let mut w = from;
-        while self.state[w as usize] == BELOW {
+    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`: up from
+    /// `u` to an ancestor holding the leaf, then down through split nodes. Both walks are short for
+    /// the leaves an operation meets, which are near `u` in the mesh and so in the tree.
+    fn find_active_outside(&self, h: &Hierarchy, u: u32, leaf: u32) -> u32 {
+        let mut w = h.parent[u as usize];
+        while !h.contains(w, leaf) {
             w = h.parent[w as usize];
         }
         while self.state[w as usize] == SPLIT {
@@ -252,7 +247,11 @@ impl Front {
 
     /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.
     pub fn representative(&self, h: &Hierarchy, leaf: u32) -> u32 {
-        self.find_active(h, leaf, leaf)
+        let mut w = leaf;
+        while self.state[w as usize] == BELOW {
+            w = h.parent[w as usize];
+        }
+        w
     }
 
     fn new_record(&mut self, record: Record) -> u32 {
@@ -303,7 +302,7 @@ impl Front {
             let corner = [
                 h.child_toward(u, input[0]),
                 h.child_toward(u, input[1]),
-                self.find_active(h, self.outside_hint[t as usize], input[2]),
+                self.find_active_outside(h, u, input[2]),
             ];
             debug_assert!(
                 corner[0] != corner[1] && corner[1] != corner[2] && corner[0] != corner[2]
@@ -312,7 +311,6 @@ impl Front {
                 corner,
                 next: [NIL; 3],
                 input,
-                triangle: t,
                 slot: HIDDEN,
             });
             for (k, &v) in corner.iter().enumerate() {
@@ -354,7 +352,6 @@ impl Front {
                     // keeps it until that list is next walked.
                     self.release(r);
                     self.records[r as usize].slot = DYING;
-                    self.outside_hint[rec.triangle as usize] = rec.corner[2];
                     self.dying.push(r);
                 } else {
                     self.records[r as usize].corner[k] = p;
