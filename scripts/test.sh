@@ -4,22 +4,14 @@
 #   scripts/test.sh
 #
 # Installs what the suite needs when it is missing (Mesa lavapipe, the software Vulkan driver the GPU
-# tests render with; Xvfb and the X libraries winit loads, for the viewer's test), then runs every test. Set VUNIFY_MODELS to a folder of the real models (see
-# ../shared/models/README.md) to include the tests on them; CI does.
+# tests render with; Xvfb and the X libraries winit loads, for the viewer's test), then runs every
+# test. Set VUNIFY_MODELS to a folder of the real models (see ../shared/models/README.md) to include
+# the tests on them; CI does.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-need=()
-for pkg in mesa-vulkan-drivers libvulkan1 xvfb libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0; do
-  dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
-done
-if [ ${#need[@]} -gt 0 ]; then
-  echo "scripts/test.sh: installing ${need[*]}"
-  sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo="sudo"
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${need[@]}" >/dev/null
-fi
+source scripts/deps.sh
+ensure_packages "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}" xvfb
 
 if [ -n "${VUNIFY_MODELS:-}" ]; then
   echo "scripts/test.sh: real models from VUNIFY_MODELS=$VUNIFY_MODELS"
