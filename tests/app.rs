@@ -84,6 +84,8 @@ fn scripted_run_shows_the_model_and_the_panel() {
                 {"frame": 2, "open": bad},
                 {"frame": 5, "record": recorded},
                 {"frame": 50, "record": null},
+                {"frame": 10, "vsync": true},
+                {"frame": 12, "vsync": false},
                 {"frame": 20, "wireframe": true},
                 {"frame": 40, "tau": 2.0},
                 {"frame": 59, "screenshot": shot},

@@ -497,6 +497,11 @@ fn frame(r: &mut Running, settings: &mut ViewerSettings) -> anyhow::Result<bool>
     let gfx = &mut r.gfx;
     let view = &mut r.view;
     let size = [gfx.config.width, gfx.config.height];
+    // vsync switched in the panel: reconfigure the surface with the chosen present mode.
+    if gfx.config.present_mode != present_mode(settings.vsync) {
+        gfx.config.present_mode = present_mode(settings.vsync);
+        gfx.surface.configure(&gfx.gpu.device, &gfx.config);
+    }
     // The 3D view is the window right of the panel.
     let panel_px =
         ((ui::PANEL_WIDTH * gfx.egui_ctx.pixels_per_point()).round() as u32).min(size[0] / 2);
@@ -747,6 +752,7 @@ fn apply(what: &What, view: &mut ViewState, settings: &mut ViewerSettings) {
         }
         What::ColorBy(c) => settings.color_by = *c,
         What::Flat(on) => settings.flat = *on,
+        What::Vsync(on) => settings.vsync = *on,
         What::Geomorph(f) => settings.geomorph_frames = *f,
         What::VisitLimit(k) => settings.visit_limit = *k,
         What::Frustum(on) => settings.tests.frustum = *on,

@@ -49,6 +49,7 @@ pub enum What {
     Budget(Option<u32>),
     ColorBy(ColorBy),
     Flat(bool),
+    Vsync(bool),
     Geomorph(u32),
     VisitLimit(u32),
     Frustum(bool),
