@@ -142,6 +142,10 @@ fn main() {
         }
         let settings = Settings {
             tolerance_px: args.tau,
+            tests: vunify::refine::Tests {
+                shading: !std::env::args().any(|a| a == "--geometric"),
+                ..Default::default()
+            },
             ..Default::default()
         };
         for (path, cameras) in [

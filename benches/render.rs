@@ -32,6 +32,10 @@ fn main() {
         size,
         settings: Settings {
             tolerance_px: tau,
+            tests: vunify::refine::Tests {
+                shading: !std::env::args().any(|a| a == "--geometric"),
+                ..Default::default()
+            },
             ..Default::default()
         },
         draw: DrawOptions {

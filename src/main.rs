@@ -211,6 +211,10 @@ struct RenderArgs {
     /// Draw triangle edges over the surface.
     #[arg(long)]
     wireframe: bool,
+    /// Screen-space test on geometry alone: leave out the shading term, which also refines where
+    /// sub-pixel bumps turn normals across many pixels (fewer triangles, less faithful shading).
+    #[arg(long)]
+    geometric: bool,
     /// Surface colours: auto (vertex colours if any, else grey), shaded, depth (tree depth) or error
     /// (projected error: blue 0, green τ, red 2τ).
     #[arg(long, value_enum, default_value = "auto")]
@@ -330,6 +334,7 @@ fn headless_default_path(tree_file: &Path) -> Result<()> {
         fps: 30.0,
         compare: false,
         wireframe: false,
+        geometric: false,
         color_by: ColorChoice::Auto,
     })?;
     println!("look at {}", out.join("contact_sheet.png").display());
@@ -647,6 +652,10 @@ fn render(args: RenderArgs) -> Result<()> {
     let settings = Settings {
         tolerance_px: args.tau,
         mode: args.budget.map_or(Mode::Tolerance, Mode::Budget),
+        tests: vunify::refine::Tests {
+            shading: !args.geometric,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let draw = DrawOptions {

@@ -758,6 +758,7 @@ fn apply(what: &What, view: &mut ViewState, settings: &mut ViewerSettings) {
         What::Frustum(on) => settings.tests.frustum = *on,
         What::Normal(on) => settings.tests.normal = *on,
         What::ScreenError(on) => settings.tests.screen_error = *on,
+        What::Shading(on) => settings.tests.shading = *on,
         What::Freeze(on) => view.frozen = on.then(|| view.camera(view.size)),
         What::Orbit(on) => {
             settings.orbit = *on;

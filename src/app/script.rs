@@ -55,6 +55,7 @@ pub enum What {
     Frustum(bool),
     Normal(bool),
     ScreenError(bool),
+    Shading(bool),
     Freeze(bool),
     Orbit(bool),
     Help(bool),

@@ -120,6 +120,10 @@ fn lod_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings)
         ui.checkbox(&mut settings.tests.normal, "normal");
         ui.checkbox(&mut settings.tests.screen_error, "screen error");
     });
+    ui.checkbox(
+        &mut settings.tests.shading,
+        "weigh shading too (sub-pixel bumps)",
+    );
     let mut frozen = view.frozen.is_some();
     if ui
         .checkbox(&mut frozen, "freeze LOD (L): fly out and look at the front")

@@ -59,6 +59,10 @@ const BUDGET_STEP: f32 = 1.1;
 /// Budget mode aims between these shares of N; splits that would exceed N are refused outright.
 const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 
+/// Frames between re-sorts of the front list: sorting 30,000 nodes costs about a frame's visits, and
+/// the operations of a few frames scatter only a small part of it.
+const SORT_EVERY: u32 = 8;
+
 /// What one frame did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FrameStats {
@@ -98,6 +102,7 @@ pub struct Refiner {
     /// (node, position) pairs the renderer must write this frame.
     vertex_updates: Vec<(u32, Vec3)>,
     budget_tau: f32,
+    frames_since_sort: u32,
     /// The camera and τ of the last frame: a convergence holds only while they stay.
     last_view: Option<(Camera, f32, Settings)>,
 }
@@ -112,6 +117,7 @@ impl Refiner {
             morphs: HashMap::new(),
             vertex_updates: Vec::new(),
             budget_tau: settings.tolerance_px,
+            frames_since_sort: 0,
             last_view: None,
         }
     }
@@ -170,6 +176,16 @@ impl Refiner {
             Mode::Budget(n) => n as usize,
             Mode::Tolerance => usize::MAX,
         };
+        // Every few frames the front list goes back into memory order (see `Front::sort_active`):
+        // at once when every frame sweeps the whole front, only between sweeps when amortised (a
+        // sort mid-sweep would move nodes past the cursor).
+        self.frames_since_sort += 1;
+        let between_sweeps = self.settings.visit_limit.is_none() || self.cursor == 0;
+        if self.frames_since_sort >= SORT_EVERY && between_sweeps {
+            self.front.sort_active();
+            self.frames_since_sort = 0;
+            self.cursor = 0;
+        }
         let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
         let mut visited = 0usize;
         let mut converged = false;
@@ -213,7 +229,8 @@ impl Refiner {
     /// Decides about active node `u`; returns whether the front changed.
     fn visit(&mut self, h: &Hierarchy, view: &View, u: u32, tau: f32, cap: usize) -> bool {
         let tests = self.settings.tests;
-        if let Some(m) = self.morphs.get(&u)
+        if !self.morphs.is_empty()
+            && let Some(m) = self.morphs.get(&u)
             && m.unify_into != NIL
         {
             // Shrinking towards its parent: carry on unless the parent is wanted after all.
@@ -227,8 +244,13 @@ impl Refiner {
         if !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau {
             return self.split(h, u, cap);
         }
+        // The parent is weighed from its first child only: the second would ask the same question.
         let p = h.parent[u as usize];
-        if p != NIL && self.front.can_unify(h, p) && self.wants_unify(h, view, p, tau) {
+        if p != NIL
+            && h.children(p)[0] == u
+            && self.front.can_unify(h, p)
+            && self.wants_unify(h, view, p, tau)
+        {
             let instant = self.settings.geomorph_frames == 0 || !tests.visible(h, view, p);
             if instant {
                 self.unify(h, p);

@@ -153,11 +153,20 @@ impl View {
 
 /// Which view tests refinement applies; each can be switched off alone.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Tests {
     pub frustum: bool,
     pub normal: bool,
     pub screen_error: bool,
+    /// The screen-space test also weighs how far shading may stray ([`Hierarchy::internal_shading`]
+    /// × [`SHADING_WEIGHT`]), not only geometry.
+    pub shading: bool,
 }
+
+/// Shading deviation counts at this share of its length: the node radius times the sine of its
+/// normals' turn overstates the visible change of a smooth curved patch (whose interpolated normals
+/// follow the curve) about twice; BENCHMARKS.md has the effect on image error and triangle counts.
+pub const SHADING_WEIGHT: f32 = 0.5;
 
 impl Default for Tests {
     fn default() -> Self {
@@ -165,6 +174,7 @@ impl Default for Tests {
             frustum: true,
             normal: true,
             screen_error: true,
+            shading: true,
         }
     }
 }
@@ -191,11 +201,11 @@ impl Tests {
             return f32::INFINITY;
         }
         let k = (u - h.leaf_count) as usize;
-        view.projected_px(
-            h.internal_error[k],
-            h.position[u as usize],
-            h.internal_radius[k],
-        )
+        let mut error = h.internal_error[k];
+        if self.shading {
+            error = error.max(SHADING_WEIGHT * h.internal_shading[k]);
+        }
+        view.projected_px(error, h.position[u as usize], h.internal_radius[k])
     }
 }
 

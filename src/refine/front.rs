@@ -157,6 +157,23 @@ impl Front {
         !h.is_leaf(p) && h.children(p).iter().all(|&c| self.is_active(c))
     }
 
+    /// Puts the front list in node order: depth-first numbering makes that the order in which nodes
+    /// lie in memory, so a sweep over the front streams instead of jumping (operations scatter it).
+    pub fn sort_active(&mut self) {
+        let mut pairs: Vec<(u32, u32)> = self
+            .active
+            .iter()
+            .copied()
+            .zip(self.active_head.iter().copied())
+            .collect();
+        pairs.sort_unstable_by_key(|p| p.0);
+        for (i, (u, head)) in pairs.into_iter().enumerate() {
+            self.active[i] = u;
+            self.active_head[i] = head;
+            self.front_index[u as usize] = i as u32;
+        }
+    }
+
     /// Slot ranges of [`Front::indices`] written since the last call, merged, clipped to the current
     /// length; clears the record.
     pub fn take_dirty(&mut self) -> Vec<std::ops::Range<u32>> {

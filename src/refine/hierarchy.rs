@@ -28,6 +28,11 @@ pub struct Hierarchy {
     pub color: Vec<[u8; 4]>,
     /// Object-space error (see [`crate::vtree::Node::error`]); never less than a child's.
     pub internal_error: Vec<f32>,
+    /// How far shading may stray where the node stands in for its subtree, as a length: the node's
+    /// radius times the sine of the largest angle between a node's normal and its children's in the
+    /// subtree. Sub-pixel bumps move no vertex by a pixel but turn normals across many pixels; this
+    /// is what the screen-space test weighs them by (see [`super::Tests::shading`]).
+    pub internal_shading: Vec<f32>,
     /// Radius of a sphere about the node's *position* holding its subtree's surface: one point per
     /// node instead of a separate centre, at the cost of a slightly larger sphere.
     pub internal_radius: Vec<f32>,
@@ -61,6 +66,7 @@ pub(crate) const OCT_ERROR_RADIANS: f32 = 2e-3;
 impl Hierarchy {
     pub fn new(tree: &VertexTree) -> Hierarchy {
         let n = tree.leaf_count;
+        let n_leaves = n;
         let count = tree.nodes.len();
         let old = &tree.nodes;
 
@@ -117,12 +123,36 @@ impl Hierarchy {
                 .all(|(k, c)| c[0] < n || c[0] == n + k as u32 + 1)
         );
         let internal_error = internal.iter().map(|x| x.error).collect();
-        let internal_radius = internal
+        let internal_radius: Vec<f32> = internal
             .iter()
             .map(|x| {
                 let center = Vec3::from_slice(&x.sphere);
                 (center.distance(x.position()) + x.sphere[3]) * (1.0 + BOUND_SLACK)
             })
+            .collect();
+        // Largest normal turn in each subtree, children first (pre-order reversed).
+        let mut turn = vec![0f32; internal.len()];
+        for k in (0..internal.len()).rev() {
+            let n = Vec3::from_array(internal[k].normal);
+            for c in internal_children[k] {
+                let cn = Vec3::from_array(node(c).normal);
+                let angle = if n == Vec3::ZERO || cn == Vec3::ZERO {
+                    0.0
+                } else {
+                    n.dot(cn).clamp(-1.0, 1.0).acos()
+                };
+                let below = if c >= n_leaves {
+                    turn[(c - n_leaves) as usize]
+                } else {
+                    0.0
+                };
+                turn[k] = turn[k].max(angle).max(below);
+            }
+        }
+        let internal_shading = turn
+            .iter()
+            .zip(&internal_radius)
+            .map(|(&t, &r)| r * t.min(std::f32::consts::FRAC_PI_2).sin())
             .collect();
         // Leaf ranges: internal nodes in pre-order, so a reverse sweep meets children first.
         let mut lo = vec![0u32; internal.len()];
@@ -216,6 +246,7 @@ impl Hierarchy {
             normal,
             color,
             internal_error,
+            internal_shading,
             internal_radius,
             internal_cone,
             internal_range,
@@ -303,6 +334,7 @@ impl Hierarchy {
             + size_of_val(&self.normal[..])
             + size_of_val(&self.color[..])
             + size_of_val(&self.internal_error[..])
+            + size_of_val(&self.internal_shading[..])
             + size_of_val(&self.internal_radius[..])
             + size_of_val(&self.internal_cone[..])
             + size_of_val(&self.internal_range[..])
