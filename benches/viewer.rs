@@ -4,7 +4,7 @@
 //!
 //! `cargo bench --bench viewer [-- --model dragon --frames 150]` (needs Xvfb)
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
@@ -14,10 +14,6 @@ use common::arg;
 fn main() {
     let model = common::model_file(&arg("--model", "dragon"));
     let frames: u32 = arg("--frames", "150").parse().unwrap();
-    let dir = PathBuf::from(
-        std::env::var_os("VUNIFY_MODELS").unwrap_or_else(|| "../shared/models".into()),
-    );
-    let model = dir.join(model);
     let work = std::env::temp_dir().join("vunify-viewer-bench");
     std::fs::create_dir_all(&work).unwrap();
 
