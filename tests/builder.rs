@@ -89,19 +89,7 @@ fn assert_tree_invariants(mesh: &Mesh, tree: &VertexTree) {
 /// The whole build joins the two parts (one root), and every cut is valid.
 #[test]
 fn fig2_tetrahedron_and_triangle_build_to_one_root() {
-    let p = vec![
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(4.0, 0.0, 0.0),
-        Vec3::new(5.0, 0.0, 0.0),
-        Vec3::new(4.5, 0.0, 1.0),
-    ];
-    let mesh = Mesh::from_triangles(
-        p,
-        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]],
-    );
+    let mesh = fig2();
     for metric in [
         Metric::Qem,
         Metric::QemMidpoint,

@@ -83,19 +83,7 @@ fn assert_refines_to_input(mesh: &Mesh, tree: &VertexTree) {
 /// ```
 #[test]
 fn fig2_refines_and_coarsens_exactly() {
-    let p = vec![
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(4.0, 0.0, 0.0),
-        Vec3::new(5.0, 0.0, 0.0),
-        Vec3::new(4.5, 0.0, 1.0),
-    ];
-    let mesh = Mesh::from_triangles(
-        p,
-        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]],
-    );
+    let mesh = fig2();
     let tree = tree_of(&mesh);
     assert_refines_to_input(&mesh, &tree);
     let h = Hierarchy::new(&tree);
