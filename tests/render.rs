@@ -86,8 +86,20 @@ fn render(
             front.triangle_count()
         }
     };
-    let (image, _) = job::frame(gpu, &mut r, &target, &camera, &DrawOptions::default()).unwrap();
+    let image = shot(gpu, &mut r, &target, &camera);
     (image, triangles)
+}
+
+/// One frame of `renderer` into `target` with the default drawing options, read back.
+fn shot(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    target: &Offscreen,
+    camera: &vunify::refine::Camera,
+) -> RgbaImage {
+    job::frame(gpu, renderer, target, camera, &DrawOptions::default())
+        .unwrap()
+        .0
 }
 
 fn failures_dir() -> PathBuf {
@@ -227,14 +239,7 @@ fn resizing() {
         let (front, moved) = refiner.output();
         renderer.upload(&gpu.device, &gpu.queue, front, moved);
         counts.push(front.triangle_count());
-        let (image, _) = job::frame(
-            &gpu,
-            &mut renderer,
-            &target,
-            &camera,
-            &DrawOptions::default(),
-        )
-        .unwrap();
+        let image = shot(&gpu, &mut renderer, &target, &camera);
         assert_eq!(image.dimensions(), (size[0], size[1]));
         if size[0] > 100 {
             let background = image.get_pixel(0, 0);
@@ -258,14 +263,7 @@ fn an_empty_front_draws_the_background() {
     renderer.upload(&gpu.device, &gpu.queue, &mut front, &[]);
     let target = Offscreen::new(&gpu.device, [64, 48]);
     let camera = camera_at(&path, 0.0, [64, 48], h.diagonal);
-    let (image, _) = job::frame(
-        &gpu,
-        &mut renderer,
-        &target,
-        &camera,
-        &DrawOptions::default(),
-    )
-    .unwrap();
+    let image = shot(&gpu, &mut renderer, &target, &camera);
     let first = *image.get_pixel(0, 0);
     assert!(image.pixels().all(|p| *p == first));
 }
