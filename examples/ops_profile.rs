@@ -2,7 +2,7 @@
 //! `perf` sees the operations alone. `cargo run --release --example ops_profile -- TREE.vtree`
 use glam::Vec3;
 use std::time::Instant;
-use vunify::refine::{Camera, Hierarchy, Refiner, Settings};
+use vunify::refine::{Camera, Front, Hierarchy, Refiner, Settings};
 
 fn main() {
     let path = std::env::args()
@@ -10,6 +10,21 @@ fn main() {
         .unwrap_or("/tmp/dragon.vtree".into());
     let tree = vunify::vtree::read(path.as_ref()).unwrap();
     let h = Hierarchy::new(&tree);
+    if let Ok(n) = std::env::var("SWEEPS") {
+        for _ in 0..n.parse::<usize>().unwrap() {
+            let mut f = Front::new(&h);
+            let t0 = Instant::now();
+            f.refine_all(&h);
+            let t1 = Instant::now();
+            f.coarsen_all(&h);
+            println!(
+                "split {:.2} M/s, unify {:.2} M/s",
+                f.splits as f64 / (t1 - t0).as_secs_f64() / 1e6,
+                f.unifies as f64 / t1.elapsed().as_secs_f64() / 1e6
+            );
+        }
+        return;
+    }
     let leaves = &h.position[..h.leaf_count as usize];
     let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
     let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
@@ -41,16 +56,27 @@ fn main() {
         .ok()
         .and_then(|r| r.parse().ok())
         .unwrap_or(40);
-    let mut secs = 0.0;
+    let (mut secs, mut best) = (0.0, f64::INFINITY);
     for _ in 0..rounds {
         let mut f = start.clone();
         let t0 = Instant::now();
         f.replay(&h, &log);
-        secs += t0.elapsed().as_secs_f64();
+        let dt = t0.elapsed().as_secs_f64();
+        secs += dt;
+        best = best.min(dt);
     }
+    let mut f = Front::new(&h);
+    let t0 = Instant::now();
+    f.refine_all(&h);
+    let t1 = Instant::now();
+    f.coarsen_all(&h);
+    let t2 = Instant::now();
     println!(
-        "{} ops x {rounds}: {:.2} M ops/s",
+        "{} ops x {rounds}: {:.2} M ops/s (best round {:.2}); sweep: split {:.2} M/s, unify {:.2} M/s",
         log.len(),
-        (log.len() * rounds) as f64 / secs / 1e6
+        (log.len() * rounds) as f64 / secs / 1e6,
+        log.len() as f64 / best / 1e6,
+        f.splits as f64 / (t1 - t0).as_secs_f64() / 1e6,
+        f.unifies as f64 / (t2 - t1).as_secs_f64() / 1e6,
     );
 }

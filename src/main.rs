@@ -244,6 +244,13 @@ fn parse_size(s: &str) -> Result<[u32; 2], String> {
 }
 
 fn main() {
+    // Rust ignores SIGPIPE, so writing to a closed pipe (`vunify info F | head`) would panic in
+    // `println!`; a command-line tool should end quietly instead, as `cat` does.
+    #[cfg(unix)]
+    // SAFETY: called first thing, before any thread exists; SIG_DFL is a valid action for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         None => default_job(),

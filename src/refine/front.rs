@@ -248,18 +248,32 @@ impl Front {
         *head = r;
     }
 
-    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`: up from
-    /// `u` to an ancestor holding the leaf, then down through split nodes. Both walks are short for
-    /// the leaves an operation meets, which are near `u` in the mesh and so in the tree.
+    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`. Two
+    /// walks find it: up from `u` to an ancestor holding the leaf, then down through split nodes; and
+    /// up from the leaf through nodes below the front. The first is short where the front is coarse,
+    /// the second where it is fine; taking them a step each in turn costs the shorter (and their
+    /// loads, independent of each other, overlap).
+    #[inline]
     fn find_active_outside(&self, h: &Hierarchy, u: u32, leaf: u32) -> u32 {
-        let mut w = h.parent[u as usize];
-        while !h.contains(w, leaf) {
-            w = h.parent[w as usize];
+        let mut down = h.parent[u as usize];
+        let mut descending = false;
+        let mut up = leaf;
+        loop {
+            if self.state[up as usize] != BELOW {
+                return up;
+            }
+            up = h.parent[up as usize];
+            if descending {
+                if self.state[down as usize] != SPLIT {
+                    return down;
+                }
+                down = h.child_toward(down, leaf);
+            } else if h.contains(down, leaf) {
+                descending = true;
+            } else {
+                down = h.parent[down as usize];
+            }
         }
-        while self.state[w as usize] == SPLIT {
-            w = h.child_toward(w, leaf);
-        }
-        w
     }
 
     /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.

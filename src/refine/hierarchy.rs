@@ -40,20 +40,31 @@ pub struct Hierarchy {
     /// octahedral-encoded, and the sine of the half-angle widened by the encoding's error; a sine of
     /// at least 1 when the cone spans a hemisphere or more (never wholly back-facing).
     pub internal_cone: Vec<([i16; 2], f32)>,
-    /// The node's leaves `[lo, hi)` and `mid`, the first leaf of its second child. Pre-order numbering
-    /// makes the children follow from these: the first is leaf `lo` if it holds one leaf, else node
-    /// `u + 1`; the second is leaf `mid` if it holds one leaf, else node `u + (mid − lo)`, after the
-    /// first child's `mid − lo − 1` internal nodes.
-    pub internal_range: Vec<[u32; 3]>,
+    /// What a split or unify of internal node `k + leaf_count` reads, in one cache line's quarter (see
+    /// [`Internal`]); one more entry at the end closes the last node's appearing range.
+    pub internal: Vec<Internal>,
     /// Every input triangle (leaf corners, input winding) grouped by `d(t)`, cyclically rotated so
     /// that corner 2 lies outside the subtree of `d(t)` and corners 0 and 1 inside it.
     pub triangles: Vec<[u32; 3]>,
-    /// `triangles[appear_offsets[k]..appear_offsets[k + 1]]` appear when internal node `k` splits.
-    pub appear_offsets: Vec<u32>,
     /// The input's faces wind clockwise seen from outside (negative signed volume, like the horse
     /// model): cones were flipped so that the normal test still culls the far side.
     pub inward: bool,
     pub diagonal: f32,
+}
+
+/// The structure of an internal node, together because every operation on it reads all of it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C, align(16))]
+pub struct Internal {
+    /// The node's leaves are `lo..hi`; `mid` is the first leaf of its second child. Pre-order
+    /// numbering makes the children follow from these: the first is leaf `lo` if it holds one leaf,
+    /// else node `u + 1`; the second is leaf `mid` if it holds one leaf, else node `u + (mid − lo)`,
+    /// after the first child's `mid − lo − 1` internal nodes.
+    pub lo: u32,
+    pub mid: u32,
+    pub hi: u32,
+    /// `triangles[appear..next.appear]` appear when the node splits (`next` is the following entry).
+    pub appear: u32,
 }
 
 /// Widen spheres and cones by this relative amount so float rounding never lets a member poke out.
@@ -167,12 +178,14 @@ impl Hierarchy {
             };
             (lo[k], hi[k]) = (first, end);
         }
-        let internal_range: Vec<[u32; 3]> = internal_children
+        let mut internal_nodes: Vec<Internal> = internal_children
             .iter()
             .enumerate()
-            .map(|(k, &[_, c1])| {
-                let mid = if c1 < n { c1 } else { lo[(c1 - n) as usize] };
-                [lo[k], mid, hi[k]]
+            .map(|(k, &[_, c1])| Internal {
+                lo: lo[k],
+                mid: if c1 < n { c1 } else { lo[(c1 - n) as usize] },
+                hi: hi[k],
+                appear: 0,
             })
             .collect();
         let contains = |u: u32, leaf: u32| {
@@ -210,12 +223,12 @@ impl Hierarchy {
             })
             .collect();
         keyed.sort_by_key(|&(k, _)| k);
-        let mut appear_offsets = vec![0u32; internal.len() + 1];
+        internal_nodes.push(Internal::default());
         for &(k, _) in &keyed {
-            appear_offsets[k as usize + 1] += 1;
+            internal_nodes[k as usize + 1].appear += 1;
         }
         for k in 0..internal.len() {
-            appear_offsets[k + 1] += appear_offsets[k];
+            internal_nodes[k + 1].appear += internal_nodes[k].appear;
         }
         let triangles = keyed.into_iter().map(|(_, t)| t).collect();
 
@@ -249,9 +262,8 @@ impl Hierarchy {
             internal_shading,
             internal_radius,
             internal_cone,
-            internal_range,
+            internal: internal_nodes,
             triangles,
-            appear_offsets,
             inward,
             diagonal: tree.diagonal(),
         }
@@ -276,7 +288,7 @@ impl Hierarchy {
 
     #[inline]
     pub fn children(&self, u: u32) -> [u32; 2] {
-        let [lo, mid, hi] = self.internal_range[(u - self.leaf_count) as usize];
+        let Internal { lo, mid, hi, .. } = self.internal[(u - self.leaf_count) as usize];
         let first = if mid - lo == 1 { lo } else { u + 1 };
         let second = if hi - mid == 1 { mid } else { u + (mid - lo) };
         [first, second]
@@ -285,8 +297,19 @@ impl Hierarchy {
     /// Does internal node `u`'s subtree hold `leaf`?
     #[inline]
     pub fn contains(&self, u: u32, leaf: u32) -> bool {
-        let [lo, _, hi] = self.internal_range[(u - self.leaf_count) as usize];
+        let Internal { lo, hi, .. } = self.internal[(u - self.leaf_count) as usize];
         (lo..hi).contains(&leaf)
+    }
+
+    /// The leaves of `u`'s subtree, `lo..hi`.
+    #[inline]
+    pub fn leaf_range(&self, u: u32) -> (u32, u32) {
+        if u < self.leaf_count {
+            (u, u + 1)
+        } else {
+            let Internal { lo, hi, .. } = self.internal[(u - self.leaf_count) as usize];
+            (lo, hi)
+        }
     }
 
     /// Object-space error of a node; 0 for a leaf.
@@ -310,13 +333,13 @@ impl Hierarchy {
     /// The triangles that become non-degenerate when internal node `u` splits.
     pub fn appearing(&self, u: u32) -> std::ops::Range<u32> {
         let k = (u - self.leaf_count) as usize;
-        self.appear_offsets[k]..self.appear_offsets[k + 1]
+        self.internal[k].appear..self.internal[k + 1].appear
     }
 
     /// Which child of internal node `u` holds `leaf` (which must lie in `u`'s subtree).
     #[inline]
     pub fn child_toward(&self, u: u32, leaf: u32) -> u32 {
-        let [lo, mid, hi] = self.internal_range[(u - self.leaf_count) as usize];
+        let Internal { lo, mid, hi, .. } = self.internal[(u - self.leaf_count) as usize];
         if leaf < mid {
             if mid - lo == 1 { lo } else { u + 1 }
         } else if hi - mid == 1 {
@@ -337,9 +360,8 @@ impl Hierarchy {
             + size_of_val(&self.internal_shading[..])
             + size_of_val(&self.internal_radius[..])
             + size_of_val(&self.internal_cone[..])
-            + size_of_val(&self.internal_range[..])
+            + size_of_val(&self.internal[..])
             + size_of_val(&self.triangles[..])
-            + size_of_val(&self.appear_offsets[..])
     }
 
     /// The input vertex of each leaf (the renumbering is depth-first; see [`Hierarchy`]).

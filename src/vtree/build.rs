@@ -20,7 +20,7 @@ use crate::mesh::Mesh;
 use crate::simplify::bounds::{NormalCone, Sphere};
 use crate::simplify::collapse::{Collapser, Neighbor};
 use crate::simplify::features;
-use crate::simplify::geometry::distance_to_triangles;
+use crate::simplify::geometry::closest_point_on_triangle;
 use crate::simplify::metric::{Candidate, HybridWeights, Pricing, merged_weight};
 use crate::simplify::pairs::close_pairs;
 use crate::simplify::{Metric, quadric::Quadric};
@@ -199,9 +199,29 @@ fn cone_of(normals: impl Iterator<Item = Vec3> + Clone) -> NormalCone {
     }
 }
 
-fn unit_normal(p: &[Vec3], c: [u32; 3]) -> Vec3 {
-    let [a, b, d] = c.map(|v| p[v as usize]);
-    (b - a).cross(d - a).normalize_or_zero()
+/// A triangle around a merged vertex, as [`finish_node`] reads it.
+struct FanTriangle {
+    corners: [Vec3; 3],
+    /// Unit normal; zero for a degenerate triangle.
+    normal: Vec3,
+}
+
+/// Distance from `p` to the nearest triangle of `fan`; `None` when there are none. A triangle whose
+/// plane is already farther than the best so far cannot be nearer: its closest point is skipped.
+fn distance_to_fan(p: Vec3, fan: &[FanTriangle]) -> Option<f32> {
+    if fan.is_empty() {
+        return None;
+    }
+    let mut best = f32::INFINITY;
+    for t in fan {
+        let [a, b, d] = t.corners;
+        let plane = (p - a).dot(t.normal);
+        if plane * plane >= best {
+            continue;
+        }
+        best = best.min(closest_point_on_triangle(p, a, b, d).distance_squared(p));
+    }
+    Some(best.sqrt())
 }
 
 fn sphere_of(n: &Node) -> Sphere {
@@ -246,22 +266,30 @@ fn finish_node(
         sphere.center.z,
         sphere.radius,
     ];
+    // The triangles now around the merged vertex, read once: corners and unit normal (zero when
+    // degenerate), for the cone and for every distance below.
     let c = collapser;
+    let fan: Vec<FanTriangle> = c
+        .faces_of(slot)
+        .map(|(_, f)| {
+            let [a, b, d] = f.map(|v| c.positions[v as usize]);
+            FanTriangle {
+                corners: [a, b, d],
+                normal: (b - a).cross(d - a).normalize_or_zero(),
+            }
+        })
+        .collect();
     let mut cone = cone_of_node(ns).union(cone_of_node(nt));
-    for (_, f) in c.faces_of(slot) {
-        cone = cone.union_normal(unit_normal(&c.positions, f));
+    for t in &fan {
+        cone = cone.union_normal(t.normal);
     }
     node.cone = [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle];
     // How far the merged surface strays from the input: Hoppe 1997's residuals, measured from a few
     // input vertices per node, the farthest so far, to the triangles now around the merged vertex
     // (the children's samples compete for the places). The RMS plane distance alone underestimates
     // the Hausdorff distance 2–5× (BENCHMARKS.md).
-    let fan = || {
-        c.faces_of(slot)
-            .map(|(_, f)| f.map(|v| c.positions[v as usize]))
-    };
     let here = node.position();
-    let away = |p: Vec3| distance_to_triangles(p, fan()).unwrap_or_else(|| p.distance(here));
+    let away = |p: Vec3| distance_to_fan(p, &fan).unwrap_or_else(|| p.distance(here));
     let mut scored = [(f32::NEG_INFINITY, NONE); 2 * SAMPLES];
     for (score, &q) in scored.iter_mut().zip(pending) {
         if q != NONE {
