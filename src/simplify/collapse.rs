@@ -91,6 +91,32 @@ impl Collapser {
         self.live
     }
 
+    /// Asks the memory system for what a merge or flip test of `slot` will read, a few merges
+    /// ahead, in three stages, each needing the previous one's data in cache to find its
+    /// addresses: 0, the slot's list of triangles and position; 1, the list's contents and its
+    /// triangles' corners; 2, the corners' positions. Only a hint.
+    pub fn prefetch(&self, slot: u32, stage: u32) {
+        let s = slot as usize;
+        match stage {
+            0 => {
+                crate::prefetch(&self.faces[s]);
+                crate::prefetch(&self.positions[s]);
+            }
+            1 => {
+                for &f in self.faces[s].iter().take(16) {
+                    crate::prefetch(&self.corners[f as usize]);
+                }
+            }
+            _ => {
+                for &f in self.faces[s].iter().take(16) {
+                    for v in self.corners[f as usize] {
+                        crate::prefetch(&self.positions[v as usize]);
+                    }
+                }
+            }
+        }
+    }
+
     pub fn is_live(&self, slot: u32) -> bool {
         self.merged_into[slot as usize] == ALIVE
     }

@@ -126,6 +126,14 @@ const PASS_COST_BOUND: f32 = 1.5;
 /// three or four of them, and the cost bound stops most passes well before the window ends.
 const PASS_WINDOW: usize = 4;
 
+/// The sequential merge loop prefetches the slots of the merge this many ahead, the triangles
+/// around them half as many ahead, and those triangles' corners a quarter as many ahead (see
+/// [`Collapser::prefetch`]).
+const PREFETCH_AHEAD: usize = 16;
+
+/// Slots priced one after another by one thread, prefetching ahead within the run.
+const PRICE_RUN: usize = 256;
+
 /// Slots priced per parallel batch (see [`Builder::price_around`]).
 const PRICE_CHUNK: usize = 1 << 14;
 
@@ -492,19 +500,27 @@ impl Builder<'_> {
 
     fn price_chunk(&self, slots: &[u32], keep: &(impl Fn(u32, u32) -> bool + Sync)) -> Vec<Entry> {
         slots
-            .par_iter()
+            .par_chunks(PRICE_RUN)
             .fold_with(
                 (Vec::new(), Vec::new()),
-                |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), &a| {
-                    self.collapser.neighbors(a, &mut scratch);
-                    for nb in scratch.iter().filter(|nb| keep(a, nb.slot)) {
-                        let cost = key(self.price(a, nb.slot, nb.edge).cost);
-                        out.push(Entry {
-                            cost,
-                            a,
-                            b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
-                            created: 0,
-                        });
+                |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), run| {
+                    for (i, &a) in run.iter().enumerate() {
+                        // Scattered slots: load the next ones' triangles while this one is priced.
+                        for stage in 0..3 {
+                            if let Some(&next) = run.get(i + (PREFETCH_AHEAD >> stage)) {
+                                self.collapser.prefetch(next, stage as u32);
+                            }
+                        }
+                        self.collapser.neighbors(a, &mut scratch);
+                        for nb in scratch.iter().filter(|nb| keep(a, nb.slot)) {
+                            let cost = key(self.price(a, nb.slot, nb.edge).cost);
+                            out.push(Entry {
+                                cost,
+                                a,
+                                b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
+                                created: 0,
+                            });
+                        }
                     }
                     (out, scratch)
                 },
@@ -589,7 +605,21 @@ impl Builder<'_> {
             // in place at its low cost, it would crowd the front of every later pass.
             let first_new = self.nodes.len();
             finished.clear();
-            for (&index, &cand) in chosen.iter().zip(&priced) {
+            for (i, (&index, &cand)) in chosen.iter().zip(&priced).enumerate() {
+                // The merges are scattered over the mesh: start loading the next ones' data.
+                for stage in 0..3 {
+                    if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
+                        let e = cands[next];
+                        self.collapser.prefetch(e.a, stage as u32);
+                        self.collapser.prefetch(e.b & SLOT, stage as u32);
+                        if stage == 0 {
+                            crate::prefetch(&self.quadrics[e.a as usize]);
+                            crate::prefetch(&self.node_of[e.a as usize]);
+                            crate::prefetch(&self.node_of[(e.b & SLOT) as usize]);
+                            crate::prefetch(&self.samples[e.a as usize]);
+                        }
+                    }
+                }
                 let e = &mut cands[index];
                 let (a, b) = (e.a, e.b & SLOT);
                 if e.b & PENALIZED == 0 && self.collapser.flips(a, b, cand.position) {
@@ -612,10 +642,26 @@ impl Builder<'_> {
             let collapser = &self.collapser;
             let leaves = &self.mesh.positions;
             let kept: Vec<Samples> = new
-                .par_iter_mut()
-                .zip(finished.par_iter())
-                .map(|(node, (slot, blend, pending))| {
-                    finish_node(node, done, *blend, collapser, *slot, pending, leaves)
+                .par_chunks_mut(PRICE_RUN)
+                .zip(finished.par_chunks(PRICE_RUN))
+                .flat_map_iter(|(nodes, finished)| {
+                    let done = &*done;
+                    nodes.iter_mut().enumerate().map(move |(i, node)| {
+                        for stage in 0..3 {
+                            if let Some(&(next, _, pending)) =
+                                finished.get(i + (PREFETCH_AHEAD >> stage))
+                            {
+                                collapser.prefetch(next, stage as u32);
+                                if stage == 0 {
+                                    for q in pending.into_iter().filter(|&q| q != NONE) {
+                                        crate::prefetch(&leaves[q as usize]);
+                                    }
+                                }
+                            }
+                        }
+                        let (slot, blend, pending) = &finished[i];
+                        finish_node(node, done, *blend, collapser, *slot, pending, leaves)
+                    })
                 })
                 .collect();
             for (&(slot, _, _), kept) in finished.iter().zip(kept) {
