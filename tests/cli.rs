@@ -187,3 +187,26 @@ fn path_and_render_commands() {
         assert!(help.contains(option), "render --help lacks {option}");
     }
 }
+
+/// Printing into a closed pipe (`vunify measure A B | head -0`) ends the process quietly, as `cat`
+/// does, instead of panicking in `println!`.
+#[test]
+fn closed_stdout_ends_quietly() {
+    let obj = tmp("one-triangle.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let o = obj.to_str().unwrap();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args(["measure", o, o, "--samples", "1000"])
+        .stdout(writer)
+        .output()
+        .expect("run vunify");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        assert_eq!(out.status.signal(), Some(13), "SIGPIPE ends it: {:?}", out.status);
+    }
+}
