@@ -558,20 +558,17 @@ fn real_models_refine_exactly() {
 fn shading_deviation_follows_normal_turns() {
     let flat = Hierarchy::new(&tree_of(&grid(12, 12, |_, _| 0.0)));
     assert!(
-        flat.internal_shading.iter().all(|&s| s < 1e-4),
+        flat.internal_bounds.iter().all(|b| b.shading < 1e-4),
         "{:?}",
-        flat.internal_shading.iter().cloned().fold(0.0f32, f32::max)
+        flat.internal_bounds.iter().map(|b| b.shading).fold(0.0f32, f32::max)
     );
     let rippled = Hierarchy::new(&tree_of(&grid(12, 12, |x, y| {
         0.3 * (x * 1.7).sin() * (y * 1.3).cos()
     })));
     let root = (rippled.root() - rippled.leaf_count) as usize;
-    assert!(rippled.internal_shading[root] > 0.1 * rippled.internal_radius[root]);
-    for (s, r) in rippled
-        .internal_shading
-        .iter()
-        .zip(&rippled.internal_radius)
-    {
-        assert!(*s <= *r * 1.0001);
+    let b = rippled.internal_bounds[root];
+    assert!(b.shading > 0.1 * b.radius);
+    for b in &rippled.internal_bounds {
+        assert!(b.shading <= b.radius * 1.0001);
     }
 }

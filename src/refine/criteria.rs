@@ -158,7 +158,7 @@ pub struct Tests {
     pub frustum: bool,
     pub normal: bool,
     pub screen_error: bool,
-    /// The screen-space test also weighs how far shading may stray ([`Hierarchy::internal_shading`]
+    /// The screen-space test also weighs how far shading may stray ([`Bounds::shading`](super::hierarchy::Bounds::shading)
     /// × [`SHADING_WEIGHT`]), not only geometry.
     pub shading: bool,
 }
@@ -183,13 +183,10 @@ impl Tests {
     /// Can the node be seen at all: not wholly outside the frustum, not wholly facing away?
     #[inline]
     pub fn visible(&self, h: &Hierarchy, view: &View, u: u32) -> bool {
-        let k = (u - h.leaf_count) as usize;
-        let (c, r) = (h.position[u as usize], h.internal_radius[k]);
+        let b = &h.internal_bounds[(u - h.leaf_count) as usize];
+        let (c, r) = (h.position[u as usize], b.radius);
         let culled = (self.frustum && view.outside(c, r))
-            || (self.normal && {
-                let (axis, sin_t) = h.internal_cone[k];
-                view.back_facing(c, r, decode_normal(axis), sin_t)
-            });
+            || (self.normal && view.back_facing(c, r, decode_normal(b.cone_axis), b.cone_sin));
         !culled
     }
 
@@ -200,12 +197,12 @@ impl Tests {
         if !self.screen_error {
             return f32::INFINITY;
         }
-        let k = (u - h.leaf_count) as usize;
-        let mut error = h.internal_error[k];
+        let b = &h.internal_bounds[(u - h.leaf_count) as usize];
+        let mut error = b.error;
         if self.shading {
-            error = error.max(SHADING_WEIGHT * h.internal_shading[k]);
+            error = error.max(SHADING_WEIGHT * b.shading);
         }
-        view.projected_px(error, h.position[u as usize], h.internal_radius[k])
+        view.projected_px(error, h.position[u as usize], b.radius)
     }
 }
 

@@ -26,20 +26,8 @@ pub struct Hierarchy {
     pub normal: Vec<[i16; 2]>,
     /// Linear RGB of every node as RGBA8; empty when the model has no colours.
     pub color: Vec<[u8; 4]>,
-    /// Object-space error (see [`crate::vtree::Node::error`]); never less than a child's.
-    pub internal_error: Vec<f32>,
-    /// How far shading may stray where the node stands in for its subtree, as a length: the node's
-    /// radius times the sine of the largest angle between a node's normal and its children's in the
-    /// subtree. Sub-pixel bumps move no vertex by a pixel but turn normals across many pixels; this
-    /// is what the screen-space test weighs them by (see [`super::Tests::shading`]).
-    pub internal_shading: Vec<f32>,
-    /// Radius of a sphere about the node's *position* holding its subtree's surface: one point per
-    /// node instead of a separate centre, at the cost of a slightly larger sphere.
-    pub internal_radius: Vec<f32>,
-    /// Normal cone of the subtree's faces, oriented outwards (see [`Hierarchy::inward`]): axis
-    /// octahedral-encoded, and the sine of the half-angle widened by the encoding's error; a sine of
-    /// at least 1 when the cone spans a hemisphere or more (never wholly back-facing).
-    pub internal_cone: Vec<([i16; 2], f32)>,
+    /// What the view tests read of an internal node `k + leaf_count`, together (see [`Bounds`]).
+    pub internal_bounds: Vec<Bounds>,
     /// What a split or unify of internal node `k + leaf_count` reads, in one cache line's quarter (see
     /// [`Internal`]); one more entry at the end closes the last node's appearing range.
     pub internal: Vec<Internal>,
@@ -50,6 +38,28 @@ pub struct Hierarchy {
     /// model): cones were flipped so that the normal test still culls the far side.
     pub inward: bool,
     pub diagonal: f32,
+}
+
+/// The view tests' data of an internal node, in one place because every visit reads all of it (five
+/// separate arrays were five cache misses a visit).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct Bounds {
+    /// Radius of a sphere about the node's *position* holding its subtree's surface: one point per
+    /// node instead of a separate centre, at the cost of a slightly larger sphere.
+    pub radius: f32,
+    /// Object-space error (see [`crate::vtree::Node::error`]); never less than a child's.
+    pub error: f32,
+    /// How far shading may stray where the node stands in for its subtree, as a length: the node's
+    /// radius times the sine of the largest angle between a node's normal and its children's in the
+    /// subtree. Sub-pixel bumps move no vertex by a pixel but turn normals across many pixels; this
+    /// is what the screen-space test weighs them by (see [`super::Tests::shading`]).
+    pub shading: f32,
+    /// Normal cone of the subtree's faces, oriented outwards (see [`Hierarchy::inward`]): axis
+    /// octahedral-encoded, and the sine of the half-angle widened by the encoding's error; a sine of
+    /// at least 1 when the cone spans a hemisphere or more (never wholly back-facing).
+    pub cone_axis: [i16; 2],
+    pub cone_sin: f32,
 }
 
 /// The structure of an internal node, together because every operation on it reads all of it.
@@ -133,7 +143,6 @@ impl Hierarchy {
                 .enumerate()
                 .all(|(k, c)| c[0] < n || c[0] == n + k as u32 + 1)
         );
-        let internal_error = internal.iter().map(|x| x.error).collect();
         let internal_radius: Vec<f32> = internal
             .iter()
             .map(|x| {
@@ -160,7 +169,7 @@ impl Hierarchy {
                 turn[k] = turn[k].max(angle).max(below);
             }
         }
-        let internal_shading = turn
+        let internal_shading: Vec<f32> = turn
             .iter()
             .zip(&internal_radius)
             .map(|(&t, &r)| r * t.min(std::f32::consts::FRAC_PI_2).sin())
@@ -233,7 +242,7 @@ impl Hierarchy {
         let triangles = keyed.into_iter().map(|(_, t)| t).collect();
 
         let flip = if inward { -1.0 } else { 1.0 };
-        let internal_cone = internal
+        let internal_cone: Vec<([i16; 2], f32)> = internal
             .iter()
             .map(|x| {
                 let axis = Vec3::from_slice(&x.cone) * flip;
@@ -258,10 +267,17 @@ impl Hierarchy {
             parent,
             normal,
             color,
-            internal_error,
-            internal_shading,
-            internal_radius,
-            internal_cone,
+            internal_bounds: internal
+                .iter()
+                .enumerate()
+                .map(|(k, x)| Bounds {
+                    radius: internal_radius[k],
+                    error: x.error,
+                    shading: internal_shading[k],
+                    cone_axis: internal_cone[k].0,
+                    cone_sin: internal_cone[k].1,
+                })
+                .collect(),
             internal: internal_nodes,
             triangles,
             inward,
@@ -317,7 +333,7 @@ impl Hierarchy {
         if u < self.leaf_count {
             0.0
         } else {
-            self.internal_error[(u - self.leaf_count) as usize]
+            self.internal_bounds[(u - self.leaf_count) as usize].error
         }
     }
 
@@ -326,7 +342,7 @@ impl Hierarchy {
         if u < self.leaf_count {
             0.0
         } else {
-            self.internal_radius[(u - self.leaf_count) as usize]
+            self.internal_bounds[(u - self.leaf_count) as usize].radius
         }
     }
 
@@ -356,10 +372,7 @@ impl Hierarchy {
             + size_of_val(&self.parent[..])
             + size_of_val(&self.normal[..])
             + size_of_val(&self.color[..])
-            + size_of_val(&self.internal_error[..])
-            + size_of_val(&self.internal_shading[..])
-            + size_of_val(&self.internal_radius[..])
-            + size_of_val(&self.internal_cone[..])
+            + size_of_val(&self.internal_bounds[..])
             + size_of_val(&self.internal[..])
             + size_of_val(&self.triangles[..])
     }
