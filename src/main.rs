@@ -122,9 +122,16 @@ struct Target {
     /// Keep this fraction of the triangles (0..1).
     #[arg(long, group = "target")]
     ratio: Option<f64>,
-    /// The coarsest front whose nodes' error is at most this, as a fraction of the bounding-box diagonal.
+    /// The coarsest front whose nodes' error is at most this, as a fraction of the bounding-box
+    /// diagonal. The node error measures deviation where each merge happened: tight, but an
+    /// estimate (the Hausdorff distance measured 1–3× it).
     #[arg(long, group = "target")]
     error: Option<f32>,
+    /// The coarsest front whose nodes' deviation bound is at most this, as a fraction of the
+    /// bounding-box diagonal: a guarantee, the Hausdorff distance to the input is at most this
+    /// (with more triangles than --error for the same number).
+    #[arg(long, group = "target")]
+    bound: Option<f32>,
 }
 
 #[derive(Args)]
@@ -215,6 +222,10 @@ struct RenderArgs {
     /// sub-pixel bumps turn normals across many pixels (fewer triangles, less faithful shading).
     #[arg(long)]
     geometric: bool,
+    /// Screen-space test on the strict deviation bound instead of the measured error: no point of
+    /// the surface drawn more than τ pixels from where it belongs, with many more triangles.
+    #[arg(long)]
+    strict: bool,
     /// Surface colours: auto (vertex colours if any, else grey), shaded, depth (tree depth) or error
     /// (projected error: blue 0, green τ, red 2τ).
     #[arg(long, value_enum, default_value = "auto")]
@@ -342,6 +353,7 @@ fn headless_default_path(tree_file: &Path) -> Result<()> {
         compare: false,
         wireframe: false,
         geometric: false,
+        strict: false,
         color_by: ColorChoice::Auto,
     })?;
     println!("look at {}", out.join("contact_sheet.png").display());
@@ -508,21 +520,26 @@ fn info(file: &Path, check: bool, json: bool) -> Result<()> {
 fn extract(args: ExtractArgs) -> Result<()> {
     let tree = vtree::read(&args.file)?;
     let total = tree.triangles.len() as u32;
-    let cut = match (args.target.triangles, args.target.ratio, args.target.error) {
-        (Some(n), _, _) => vtree::cut_at_triangles(&tree, n),
-        (_, Some(r), _) => {
-            if !(0.0..=1.0).contains(&r) {
-                bail!("--ratio must be between 0 and 1, got {r}");
-            }
-            vtree::cut_at_triangles(&tree, (r * total as f64).round() as u32)
+    let fraction = |name: &str, e: f32| {
+        if e.is_nan() || e < 0.0 {
+            bail!("--{name} must be a non-negative fraction of the diagonal, got {e}");
         }
-        (_, _, Some(e)) => {
-            if e.is_nan() || e < 0.0 {
-                bail!("--error must be a non-negative fraction of the diagonal, got {e}");
-            }
-            vtree::cut_at_error(&tree, e * tree.diagonal())
+        Ok(e * tree.diagonal())
+    };
+    let t = &args.target;
+    let cut = if let Some(n) = t.triangles {
+        vtree::cut_at_triangles(&tree, n)
+    } else if let Some(r) = t.ratio {
+        if !(0.0..=1.0).contains(&r) {
+            bail!("--ratio must be between 0 and 1, got {r}");
         }
-        _ => unreachable!("clap requires exactly one target"),
+        vtree::cut_at_triangles(&tree, (r * total as f64).round() as u32)
+    } else if let Some(e) = t.error {
+        vtree::cut_at_error(&tree, fraction("error", e)?)
+    } else if let Some(b) = t.bound {
+        vtree::cut_at_bound(&tree, fraction("bound", b)?)
+    } else {
+        unreachable!("clap requires exactly one target")
     };
     vunify::export::write_obj(&cut.mesh, &args.output)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
@@ -661,6 +678,7 @@ fn render(args: RenderArgs) -> Result<()> {
         mode: args.budget.map_or(Mode::Tolerance, Mode::Budget),
         tests: vunify::refine::Tests {
             shading: !args.geometric,
+            strict: args.strict,
             ..Default::default()
         },
         ..Default::default()

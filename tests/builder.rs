@@ -37,8 +37,67 @@ fn sorted_keys(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
     v
 }
 
+/// The deviation bound holds on fronts at three levels: every input vertex lies within the bound of
+/// the front node standing for it, and every point of every input triangle (three barycentric
+/// samples each) within the front's level of where the front draws it — the argument of
+/// [`VertexTree::deviation_bounds`], checked point by point. The bounds never decrease upwards.
+fn assert_deviation_bound(mesh: &Mesh, tree: &VertexTree) {
+    let bound = tree.deviation_bounds();
+    for (u, node) in tree.nodes.iter().enumerate().skip(tree.leaf_count as usize) {
+        for c in node.children {
+            assert!(
+                bound[u] >= bound[c as usize],
+                "bound of {u} below its child {c}'s"
+            );
+        }
+    }
+    let root = bound[tree.root() as usize];
+    for level in [0.05 * root, 0.3 * root, root] {
+        let cut = vtree::cut_at_bound(tree, level);
+        let mut on_front = vec![false; tree.nodes.len()];
+        for &u in &cut.nodes {
+            assert!(bound[u as usize] <= level);
+            on_front[u as usize] = true;
+        }
+        // g(v): the front node above each leaf.
+        let g: Vec<u32> = (0..tree.leaf_count)
+            .map(|v| {
+                let mut u = v;
+                while !on_front[u as usize] {
+                    u = tree.nodes[u as usize].parent;
+                }
+                u
+            })
+            .collect();
+        let drawn = |v: u32| tree.nodes[g[v as usize] as usize].position();
+        let slack = 1e-4 * level + 1e-6 * mesh.diagonal();
+        for (v, &p) in mesh.positions.iter().enumerate() {
+            let d = p.distance(drawn(v as u32));
+            assert!(
+                d <= bound[g[v] as usize] + slack,
+                "vertex {v}: {d} > its node's bound"
+            );
+        }
+        for t in &mesh.triangles {
+            for beta in [[1.0 / 3.0; 3], [0.6, 0.3, 0.1], [0.05, 0.15, 0.8]] {
+                let (mut p, mut q) = (Vec3::ZERO, Vec3::ZERO);
+                for k in 0..3 {
+                    p += beta[k] * mesh.positions[t[k] as usize];
+                    q += beta[k] * drawn(t[k]);
+                }
+                assert!(
+                    p.distance(q) <= level + slack,
+                    "{t:?} {beta:?}: {} > {level}",
+                    p.distance(q)
+                );
+            }
+        }
+    }
+}
+
 /// Every invariant the issue names, on one tree built from `mesh`.
 fn assert_tree_invariants(mesh: &Mesh, tree: &VertexTree) {
+    assert_deviation_bound(mesh, tree);
     // One binary tree, one root; errors monotone; spheres nested; links consistent.
     vtree::check(tree).unwrap();
     // Collapsing it reaches the one root, and every cut in build order is a mesh without degenerate or

@@ -207,6 +207,11 @@ fn closed_stdout_ends_quietly() {
     #[cfg(unix)]
     {
         use std::os::unix::process::ExitStatusExt;
-        assert_eq!(out.status.signal(), Some(13), "SIGPIPE ends it: {:?}", out.status);
+        assert_eq!(
+            out.status.signal(),
+            Some(13),
+            "SIGPIPE ends it: {:?}",
+            out.status
+        );
     }
 }

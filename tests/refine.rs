@@ -310,6 +310,28 @@ fn still_camera_converges_to_the_unamortised_front() {
                 );
             }
         }
+
+        // With the strict bound the same holds for the bound, on a finer front.
+        let strict_tests = Tests {
+            strict: true,
+            ..Default::default()
+        };
+        let mut strict = Refiner::new(
+            &h,
+            Settings {
+                tests: strict_tests,
+                ..settings
+            },
+        );
+        assert!(strict.update(&h, camera).converged);
+        check_front(&h, &strict.front).unwrap();
+        for &u in strict.front.active() {
+            if !h.is_leaf(u) && strict_tests.visible(&h, &view, u) {
+                let px = strict_tests.error_px(&h, &view, u);
+                assert!(px <= 1.0, "view {k}: strict front node {u} at {px} px > τ");
+            }
+        }
+        assert!(strict.front.triangle_count() >= whole.front.triangle_count());
     }
 }
 
@@ -560,7 +582,10 @@ fn shading_deviation_follows_normal_turns() {
     assert!(
         flat.internal_bounds.iter().all(|b| b.shading < 1e-4),
         "{:?}",
-        flat.internal_bounds.iter().map(|b| b.shading).fold(0.0f32, f32::max)
+        flat.internal_bounds
+            .iter()
+            .map(|b| b.shading)
+            .fold(0.0f32, f32::max)
     );
     let rippled = Hierarchy::new(&tree_of(&grid(12, 12, |x, y| {
         0.3 * (x * 1.7).sin() * (y * 1.3).cos()

@@ -124,6 +124,14 @@ fn lod_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings)
         &mut settings.tests.shading,
         "weigh shading too (sub-pixel bumps)",
     );
+    ui.checkbox(
+        &mut settings.tests.strict,
+        "strict bound (nothing strays over τ)",
+    )
+    .on_hover_text(
+        "Project each node's strict deviation bound instead of its measured error: \
+         a guarantee, with many more triangles",
+    );
     let mut frozen = view.frozen.is_some();
     if ui
         .checkbox(&mut frozen, "freeze LOD (L): fly out and look at the front")

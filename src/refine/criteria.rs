@@ -161,6 +161,11 @@ pub struct Tests {
     /// The screen-space test also weighs how far shading may stray ([`Bounds::shading`](super::hierarchy::Bounds::shading)
     /// × [`SHADING_WEIGHT`]), not only geometry.
     pub shading: bool,
+    /// The screen-space test projects the strict deviation bound ([`Bounds::bound`](super::hierarchy::Bounds::bound))
+    /// instead of the measured error: then no point of the input surface is drawn more than τ
+    /// pixels from where it belongs, at the price of many more triangles (the bound counts sliding
+    /// along the surface as deviation). Off by default.
+    pub strict: bool,
 }
 
 /// Shading deviation counts at this share of its length: the node radius times the sine of its
@@ -175,6 +180,7 @@ impl Default for Tests {
             normal: true,
             screen_error: true,
             shading: true,
+            strict: false,
         }
     }
 }
@@ -198,7 +204,7 @@ impl Tests {
             return f32::INFINITY;
         }
         let b = &h.internal_bounds[(u - h.leaf_count) as usize];
-        let mut error = b.error;
+        let mut error = if self.strict { b.bound } else { b.error };
         if self.shading {
             error = error.max(SHADING_WEIGHT * b.shading);
         }

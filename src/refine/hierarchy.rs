@@ -60,6 +60,9 @@ pub struct Bounds {
     /// at least 1 when the cone spans a hemisphere or more (never wholly back-facing).
     pub cone_axis: [i16; 2],
     pub cone_sin: f32,
+    /// A strict bound on the node's deviation from the input ([`VertexTree::deviation_bounds`]):
+    /// what the screen-space test projects instead of `error` when [`super::Tests::strict`] is set.
+    pub bound: f32,
 }
 
 /// The structure of an internal node, together because every operation on it reads all of it.
@@ -143,6 +146,7 @@ impl Hierarchy {
                 .enumerate()
                 .all(|(k, c)| c[0] < n || c[0] == n + k as u32 + 1)
         );
+        let deviation = tree.deviation_bounds();
         let internal_radius: Vec<f32> = internal
             .iter()
             .map(|x| {
@@ -271,6 +275,7 @@ impl Hierarchy {
                 .iter()
                 .enumerate()
                 .map(|(k, x)| Bounds {
+                    bound: deviation[old_of[n as usize + k] as usize],
                     radius: internal_radius[k],
                     error: x.error,
                     shading: internal_shading[k],

@@ -103,6 +103,13 @@ pub fn cut_at_triangles(tree: &VertexTree, target: u32) -> Cut {
     cut_at_merges(tree, k as u32)
 }
 
+/// The coarsest front whose every node's deviation bound ([`VertexTree::deviation_bounds`]) is at
+/// most `bound` (object-space units): its Hausdorff distance to the input is at most `bound`.
+pub fn cut_at_bound(tree: &VertexTree, bound: f32) -> Cut {
+    let bounds = tree.deviation_bounds();
+    cut_where(tree, |u| bounds[u as usize] > bound)
+}
+
 /// The coarsest front whose every node has an error of at most `error` (object-space units).
 pub fn cut_at_error(tree: &VertexTree, error: f32) -> Cut {
     cut_where(tree, |u| tree.nodes[u as usize].error > error)
