@@ -128,8 +128,9 @@ struct Target {
     #[arg(long, group = "target")]
     error: Option<f32>,
     /// The coarsest front whose nodes' deviation bound is at most this, as a fraction of the
-    /// bounding-box diagonal: a guarantee, the Hausdorff distance to the input is at most this
-    /// (with more triangles than --error for the same number).
+    /// bounding-box diagonal: a guarantee, no point of the input surface is moved farther (a thin
+    /// part may collapse to a line, which is not drawn); more triangles than --error for the same
+    /// number.
     #[arg(long, group = "target")]
     bound: Option<f32>,
 }

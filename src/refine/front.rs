@@ -15,7 +15,7 @@
 //! Each active node heads a list of the live triangles around it, threaded through the triangles'
 //! records (`next[k]` follows corner `k`), so a split or unify costs time in proportion to the
 //! triangles around the node and never scans the front or the triangle list. Only live triangles have
-//! a record (32 bytes, recycled); the rest cost 4 bytes each, so memory follows the front, not the
+//! a record (40 bytes, recycled); the rest cost 4 bytes each, so memory follows the front, not the
 //! model. Coincident triangles share
 //! all three corners, so all of them are in the lists an operation walks: resolving which is drawn
 //! stays local too.

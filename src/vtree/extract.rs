@@ -104,7 +104,8 @@ pub fn cut_at_triangles(tree: &VertexTree, target: u32) -> Cut {
 }
 
 /// The coarsest front whose every node's deviation bound ([`VertexTree::deviation_bounds`]) is at
-/// most `bound` (object-space units): its Hausdorff distance to the input is at most `bound`.
+/// most `bound` (object-space units): no point of the input surface is drawn farther than `bound`
+/// from where it is (counting the edges and points that thin parts collapse to as drawn).
 pub fn cut_at_bound(tree: &VertexTree, bound: f32) -> Cut {
     let bounds = tree.deviation_bounds();
     cut_where(tree, |u| bounds[u as usize] > bound)
