@@ -9,7 +9,16 @@ fn main() {
         .nth(1)
         .unwrap_or("/tmp/dragon.vtree".into());
     let tree = vunify::vtree::read(path.as_ref()).unwrap();
+    let t0 = Instant::now();
+    let bounds = tree.deviation_bounds();
+    let t1 = Instant::now();
     let h = Hierarchy::new(&tree);
+    println!(
+        "deviation bounds {:.1} ms ({} nodes), hierarchy {:.1} ms",
+        (t1 - t0).as_secs_f64() * 1e3,
+        bounds.len(),
+        t1.elapsed().as_secs_f64() * 1e3
+    );
     if let Ok(n) = std::env::var("SWEEPS") {
         for _ in 0..n.parse::<usize>().unwrap() {
             let mut f = Front::new(&h);
