@@ -63,6 +63,30 @@ const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 /// the operations of a few frames scatter only a small part of it.
 const SORT_EVERY: u32 = 8;
 
+/// Visits prefetch the data of the visit this many ahead, and of its parent half as many ahead.
+const VISIT_AHEAD: usize = 16;
+
+/// A hint for the memory system: what visiting front node `u` reads — its position, view data and
+/// parent — or, at the `parent` stage (which needs the first one's load of the parent id), what weighing
+/// its parent for a unify reads.
+#[inline]
+fn prefetch_visit(h: &Hierarchy, u: u32, parent: bool) {
+    let n = h.leaf_count;
+    let node = if parent { h.parent[u as usize] } else { u };
+    if node == NIL {
+        return;
+    }
+    crate::prefetch(&h.position[node as usize]);
+    if node >= n {
+        crate::prefetch(&h.internal_bounds[(node - n) as usize]);
+        // A split of the node, or the unify test of the parent, reads its structure.
+        crate::prefetch(&h.internal[(node - n) as usize]);
+    }
+    if !parent {
+        crate::prefetch(&h.parent[u as usize]);
+    }
+}
+
 /// What one frame did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FrameStats {
@@ -203,7 +227,16 @@ impl Refiner {
             {
                 break;
             }
-            let u = self.front.active()[self.cursor];
+            let active = self.front.active();
+            // The front list is in memory order (mostly): ask for what the visits a little ahead
+            // will read, so that their loads overlap with this one's work (see `prefetch_visit`).
+            if let Some(&ahead) = active.get(self.cursor + VISIT_AHEAD) {
+                prefetch_visit(h, ahead, false);
+            }
+            if let Some(&ahead) = active.get(self.cursor + VISIT_AHEAD / 2) {
+                prefetch_visit(h, ahead, true);
+            }
+            let u = active[self.cursor];
             visited += 1;
             if self.visit(h, &view, u, tau, cap) {
                 // The front changed under the cursor: whatever was swapped into it is next.
