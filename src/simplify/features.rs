@@ -56,70 +56,86 @@ pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: 
             })
         })
         .collect();
-    half.par_sort_unstable();
+    // Face quadrics summed per vertex (sequential: scattered adds) while the half-edges sort.
+    let face_quadrics = || {
+        let mut quadrics: Vec<Quadric> = vec![Quadric::default(); n];
+        for t in triangles {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            let q = Quadric::from_triangle(a, b, c);
+            for &v in t {
+                quadrics[v as usize] += q;
+            }
+        }
+        quadrics
+    };
+    let ((), mut quadrics) = rayon::join(|| half.par_sort_unstable(), face_quadrics);
 
     let cos_sharp = (std::f64::consts::PI - (sharp_dihedral_deg as f64).to_radians()).cos();
     let mut edges = Vec::with_capacity(half.len() / 2 + 1);
     let mut is_feature = Vec::with_capacity(half.len() / 2 + 1);
     let mut feature_count = vec![0u32; n];
-    let mut quadrics: Vec<Quadric> = vec![Quadric::default(); n];
-    for (f, t) in triangles.iter().enumerate() {
-        let [a, b, c] = t.map(|v| positions[v as usize]);
-        let q = Quadric::from_triangle(a, b, c);
-        let _ = f;
-        for &v in t {
-            quadrics[v as usize] += q;
-        }
-    }
-    let mut total_len = 0.0f64;
-    let mut i = 0;
-    while i < half.len() {
-        let (u, v) = (half[i].0, half[i].1);
-        let mut j = i;
-        while j < half.len() && half[j].0 == u && half[j].1 == v {
-            j += 1;
-        }
-        let group = &half[i..j];
-        let feature = match group {
-            [_] => true,
-            [(_, _, f0, d0), (_, _, f1, d1)] => {
-                let n0 = face_normal(positions, triangles[*f0 as usize]);
-                let mut n1 = face_normal(positions, triangles[*f1 as usize]);
-                if d0 == d1 {
-                    n1 = -n1; // inconsistently oriented neighbours: compare as if they agreed
+    // Each edge's group of half-edges, classified in parallel (the dihedral test needs two face
+    // normals an edge: most of the work); the few feature edges add their constraint planes after.
+    let starts: Vec<usize> = (0..half.len())
+        .into_par_iter()
+        .filter(|&i| i == 0 || (half[i].0, half[i].1) != (half[i - 1].0, half[i - 1].1))
+        .collect();
+    let classified: Vec<(bool, f64)> = starts
+        .par_iter()
+        .enumerate()
+        .map(|(g, &i)| {
+            let j = starts.get(g + 1).copied().unwrap_or(half.len());
+            let (u, v) = (half[i].0, half[i].1);
+            let feature = match &half[i..j] {
+                [_] => true,
+                [(_, _, f0, d0), (_, _, f1, d1)] => {
+                    let n0 = face_normal(positions, triangles[*f0 as usize]);
+                    let mut n1 = face_normal(positions, triangles[*f1 as usize]);
+                    if d0 == d1 {
+                        n1 = -n1; // inconsistently oriented neighbours: compare as if they agreed
+                    }
+                    // Normals at angle α meet at dihedral π − α; sharp when π − α < θ, i.e.
+                    // cos α < cos(π − θ).
+                    n0.dot(n1) < cos_sharp
                 }
-                // Normals at angle α meet at dihedral π − α; sharp when π − α < θ, i.e. cos α < cos(π − θ).
-                n0.dot(n1) < cos_sharp
-            }
-            _ => true, // non-manifold
-        };
+                _ => true, // non-manifold
+            };
+            let length =
+                (positions[u as usize].as_dvec3() - positions[v as usize].as_dvec3()).length();
+            (feature, length)
+        })
+        .collect();
+    let total_len: f64 = classified.par_iter().map(|&(_, l)| l).sum();
+    for (g, (&i, &(feature, _))) in starts.iter().zip(&classified).enumerate() {
+        let j = starts.get(g + 1).copied().unwrap_or(half.len());
+        let group = &half[i..j];
+        let (u, v) = (half[i].0, half[i].1);
+        edges.push((u, v));
+        is_feature.push(feature);
+        if !feature {
+            continue;
+        }
+        feature_count[u as usize] += 1;
+        feature_count[v as usize] += 1;
         let (pu, pv) = (
             positions[u as usize].as_dvec3(),
             positions[v as usize].as_dvec3(),
         );
-        total_len += (pu - pv).length();
-        if feature {
-            feature_count[u as usize] += 1;
-            feature_count[v as usize] += 1;
-            let e = pv - pu;
-            let w = if group.len() == 2 {
-                SHARP_WEIGHT
-            } else {
-                BOUNDARY_WEIGHT
-            };
-            for &(_, _, f, _) in group {
-                let fnorm = face_normal(positions, triangles[f as usize]);
-                let m = e.cross(fnorm).normalize_or_zero();
-                if m != DVec3::ZERO {
-                    let q = Quadric::constraint(m, pu, w * e.length_squared());
-                    quadrics[u as usize] += q;
-                    quadrics[v as usize] += q;
-                }
+        let e = pv - pu;
+        let w = if group.len() == 2 {
+            SHARP_WEIGHT
+        } else {
+            BOUNDARY_WEIGHT
+        };
+        for &(_, _, f, _) in group {
+            let fnorm = face_normal(positions, triangles[f as usize]);
+            let m = e.cross(fnorm).normalize_or_zero();
+            if m != DVec3::ZERO {
+                let q = Quadric::constraint(m, pu, w * e.length_squared());
+                quadrics[u as usize] += q;
+                quadrics[v as usize] += q;
             }
         }
-        edges.push((u, v));
-        is_feature.push(feature);
-        i = j;
     }
     let vertex_weight = feature_count
         .iter()
