@@ -1,7 +1,9 @@
 //! Builder benchmark against meshoptimizer, in the same process and run (ratios hold on a noisy shared
 //! machine; absolute times drift). Prints Markdown tables for BENCHMARKS.md.
 //!
-//! cargo bench --bench build [-- --models cow,bunny] [--skip-quality] [--skip-metrics]
+//! cargo bench --bench build [-- --models cow,bunny] [--repeat 3] [--skip-quality] [--skip-metrics]
+//!
+//! Build and meshopt times are medians of `--repeat` alternating runs (default 3).
 //!
 //! Models come from $VUNIFY_MODELS (default ../shared/models).
 
@@ -57,6 +59,11 @@ fn measured<T>(f: impl FnOnce() -> T) -> (T, f64, usize) {
     (out, secs, PEAK.load(Relaxed) - base)
 }
 
+fn median(xs: &mut [f64]) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    xs[xs.len() / 2]
+}
+
 fn meshopt_simplify(mesh: &Mesh, target_triangles: usize) -> Mesh {
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
@@ -97,6 +104,13 @@ fn main() {
                 .map(String::from)
                 .to_vec()
         });
+    let repeat: usize = args
+        .iter()
+        .position(|a| a == "--repeat")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3)
+        .max(1);
     let dir = std::env::var("VUNIFY_MODELS").unwrap_or_else(|_| "../shared/models".into());
     let file_of = |m: &str| match m {
         "bunny" => "stanford-bunny.obj".to_string(),
@@ -122,11 +136,25 @@ fn main() {
             }
         };
         let t = mesh.triangle_count();
-        let (tree, build_s, build_peak) = measured(|| {
-            vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
-                .expect("build")
-                .0
-        });
+        // The build and meshopt alternate `repeat` times and each time is the median: the machine's
+        // load drifts, and alternating puts both under the same drift.
+        let mut builds = Vec::new();
+        let mut meshopts = Vec::new();
+        let (mut tree, mut build_peak, mut mo_peak) = (None, 0, 0);
+        for _ in 0..repeat {
+            let (t_, s_, p_) = measured(|| {
+                vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
+                    .expect("build")
+                    .0
+            });
+            builds.push(s_);
+            (tree, build_peak) = (Some(t_), p_);
+            let (_, s_, p_) = measured(|| meshopt_simplify(&mesh, t / 100));
+            meshopts.push(s_);
+            mo_peak = p_;
+        }
+        let tree = tree.expect("at least one run");
+        let (build_s, mo_s) = (median(&mut builds), median(&mut meshopts));
         let greedy = BuildOptions {
             schedule: vtree::Schedule::Greedy,
             ..Default::default()
@@ -136,7 +164,6 @@ fn main() {
                 .expect("build")
                 .0
         });
-        let (_, mo_s, mo_peak) = measured(|| meshopt_simplify(&mesh, t / 100));
         println!(
             "| {m} | {t} | {build_s:.3} | {greedy_s:.3} | {mo_s:.3} | {:.2}× | {:.1} | {:.0} | {:.1} |",
             build_s / mo_s,
