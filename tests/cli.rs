@@ -71,7 +71,33 @@ fn build_info_extract_measure() {
             || by_count.contains(" 98 triangles"),
         "{by_count}"
     );
-    ok(&vunify(&["extract", t, "--error", "0.01", "-o", l]));
+    let triangles = |said: &str| -> u32 {
+        let words: Vec<&str> = said.split_whitespace().collect();
+        let i = words
+            .iter()
+            .position(|w| *w == "triangles")
+            .expect("a triangle count");
+        words[i - 1].parse().unwrap()
+    };
+    let by_error = triangles(&ok(&vunify(&["extract", t, "--error", "0.01", "-o", l])));
+    // The strict bound is a guarantee, paid for in triangles: more of them for the same number, and
+    // the measured distance within it.
+    let by_bound = triangles(&ok(&vunify(&["extract", t, "--bound", "0.01", "-o", l])));
+    assert!(by_bound > by_error, "{by_bound} vs {by_error}");
+    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&[
+        "measure",
+        model,
+        l,
+        "--json",
+        "--samples",
+        "20000",
+    ])))
+    .unwrap();
+    let max = m["symmetric"]["max"].as_f64().unwrap();
+    assert!(max <= 0.01, "--bound 0.01 measured {max} of the diagonal");
+    let out = vunify(&["extract", t, "--bound=-1", "-o", l]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--bound must be"));
 }
 
 #[test]
