@@ -26,6 +26,20 @@ fn ok(out: &Output) -> String {
     String::from_utf8(out.stdout.clone()).unwrap()
 }
 
+/// `vunify measure ORIGINAL SIMPLIFIED --json`: the symmetric maximum, as a fraction of the diagonal.
+fn hausdorff_max(original: &str, simplified: &str) -> f64 {
+    let args = [
+        "measure",
+        original,
+        simplified,
+        "--json",
+        "--samples",
+        "20000",
+    ];
+    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&args))).unwrap();
+    m["symmetric"]["max"].as_f64().unwrap()
+}
+
 #[test]
 fn build_info_extract_measure() {
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
@@ -49,16 +63,7 @@ fn build_info_extract_measure() {
         said.contains("1354 triangles") || said.contains("1355 triangles"),
         "{said}"
     );
-    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&[
-        "measure",
-        model,
-        l,
-        "--json",
-        "--samples",
-        "20000",
-    ])))
-    .unwrap();
-    let max = m["symmetric"]["max"].as_f64().unwrap();
+    let max = hausdorff_max(model, l);
     assert!(
         max > 0.0 && max < 0.05,
         "10 % of the cessna is within 5 % of its diagonal: {max}"
@@ -84,16 +89,7 @@ fn build_info_extract_measure() {
     // the measured distance within it.
     let by_bound = triangles(&ok(&vunify(&["extract", t, "--bound", "0.01", "-o", l])));
     assert!(by_bound > by_error, "{by_bound} vs {by_error}");
-    let m: serde_json::Value = serde_json::from_str(&ok(&vunify(&[
-        "measure",
-        model,
-        l,
-        "--json",
-        "--samples",
-        "20000",
-    ])))
-    .unwrap();
-    let max = m["symmetric"]["max"].as_f64().unwrap();
+    let max = hausdorff_max(model, l);
     assert!(max <= 0.01, "--bound 0.01 measured {max} of the diagonal");
     let out = vunify(&["extract", t, "--bound=-1", "-o", l]);
     assert_eq!(out.status.code(), Some(1));
