@@ -40,8 +40,8 @@ pub struct Hierarchy {
     pub diagonal: f32,
 }
 
-/// The view tests' data of an internal node, in one place because every visit reads all of it (five
-/// separate arrays were five cache misses a visit).
+/// The view tests' data of an internal node, in one place because every visit reads all of it (as
+/// four separate arrays it was four cache misses a visit).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C)]
 pub struct Bounds {
@@ -320,17 +320,6 @@ impl Hierarchy {
     pub fn contains(&self, u: u32, leaf: u32) -> bool {
         let Internal { lo, hi, .. } = self.internal[(u - self.leaf_count) as usize];
         (lo..hi).contains(&leaf)
-    }
-
-    /// The leaves of `u`'s subtree, `lo..hi`.
-    #[inline]
-    pub fn leaf_range(&self, u: u32) -> (u32, u32) {
-        if u < self.leaf_count {
-            (u, u + 1)
-        } else {
-            let Internal { lo, hi, .. } = self.internal[(u - self.leaf_count) as usize];
-            (lo, hi)
-        }
     }
 
     /// Object-space error of a node; 0 for a leaf.

@@ -54,11 +54,3 @@ pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     let w = vc / denom;
     a + ab * v + ac * w
 }
-
-/// Distance from `p` to the nearest of `triangles` (corner positions); `None` when there are none.
-pub fn distance_to_triangles(p: Vec3, triangles: impl Iterator<Item = [Vec3; 3]>) -> Option<f32> {
-    triangles
-        .map(|[a, b, c]| closest_point_on_triangle(p, a, b, c).distance_squared(p))
-        .min_by(f32::total_cmp)
-        .map(f32::sqrt)
-}
