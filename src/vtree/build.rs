@@ -246,17 +246,32 @@ fn cone_of_node(n: &Node) -> NormalCone {
     }
 }
 
+/// A merge whose node [`finish_node`] has still to complete.
+#[derive(Clone, Copy)]
+struct Merged {
+    /// The surviving slot.
+    slot: u32,
+    /// The children's shares of the attribute blend.
+    blend: [f32; 2],
+    /// Both slots' error samples, from before the merge.
+    pending: Pending,
+}
+
 /// Colour, normal, bounding sphere and normal cone of a new node, from its (finished) children and the
 /// triangles now around its slot.
 fn finish_node(
     node: &mut Node,
     done: &[Node],
-    blend: [f32; 2],
+    merged: &Merged,
     collapser: &Collapser,
-    slot: u32,
-    pending: &Pending,
     leaves: &[Vec3],
+    fan: &mut Vec<FanTriangle>,
 ) -> Samples {
+    let Merged {
+        slot,
+        blend,
+        ref pending,
+    } = *merged;
     let (ns, nt) = (
         &done[node.children[0] as usize],
         &done[node.children[1] as usize],
@@ -276,19 +291,19 @@ fn finish_node(
     ];
     // The triangles now around the merged vertex, read once: corners and unit normal (zero when
     // degenerate), for the cone and for every distance below.
+    // `fan` is the caller's scratch, so that a pass allocates it once per thread, not once a node.
     let c = collapser;
-    let fan: Vec<FanTriangle> = c
-        .faces_of(slot)
-        .map(|(_, f)| {
-            let [a, b, d] = f.map(|v| c.positions[v as usize]);
-            FanTriangle {
-                corners: [a, b, d],
-                normal: (b - a).cross(d - a).normalize_or_zero(),
-            }
-        })
-        .collect();
+    fan.clear();
+    fan.extend(c.faces_of(slot).map(|(_, f)| {
+        let [a, b, d] = f.map(|v| c.positions[v as usize]);
+        FanTriangle {
+            corners: [a, b, d],
+            normal: (b - a).cross(d - a).normalize_or_zero(),
+        }
+    }));
+    let fan = &*fan;
     let mut cone = cone_of_node(ns).union(cone_of_node(nt));
-    for t in &fan {
+    for t in fan {
         cone = cone.union_normal(t.normal);
     }
     node.cone = [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle];
@@ -297,7 +312,7 @@ fn finish_node(
     // (the children's samples compete for the places). The RMS plane distance alone underestimates
     // the Hausdorff distance 2–5× (BENCHMARKS.md).
     let here = node.position();
-    let away = |p: Vec3| distance_to_fan(p, &fan).unwrap_or_else(|| p.distance(here));
+    let away = |p: Vec3| distance_to_fan(p, fan).unwrap_or_else(|| p.distance(here));
     let mut scored = [(f32::NEG_INFINITY, NONE); 2 * SAMPLES];
     for (score, &q) in scored.iter_mut().zip(pending) {
         if q != NONE {
@@ -382,14 +397,18 @@ impl Builder<'_> {
         let (survivor, blend) = self.merge_topology(a, b, cand);
         let u = self.nodes.len() - 1;
         let (done, new) = self.nodes.split_at_mut(u);
+        let merged = Merged {
+            slot: survivor,
+            blend,
+            pending,
+        };
         self.samples[survivor as usize] = finish_node(
             &mut new[0],
             done,
-            blend,
+            &merged,
             &self.collapser,
-            survivor,
-            &pending,
             &self.mesh.positions,
+            &mut Vec::new(),
         );
         survivor
     }
@@ -509,6 +528,14 @@ impl Builder<'_> {
                         for stage in 0..3 {
                             if let Some(&next) = run.get(i + (PREFETCH_AHEAD >> stage)) {
                                 self.collapser.prefetch(next, stage as u32);
+                                if stage == 2 {
+                                    // Pricing reads the neighbours' quadrics too.
+                                    for (_, corners) in self.collapser.faces_of(next).take(16) {
+                                        for v in corners {
+                                            crate::prefetch(&self.quadrics[v as usize]);
+                                        }
+                                    }
+                                }
                             }
                         }
                         self.collapser.neighbors(a, &mut scratch);
@@ -548,7 +575,7 @@ impl Builder<'_> {
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
         let mut cands = self.priced_candidates();
         let mut chosen: Vec<usize> = Vec::new();
-        let mut finished: Vec<(u32, [f32; 2], Pending)> = Vec::new();
+        let mut finished: Vec<Merged> = Vec::new();
         while self.collapser.live_count() > 1 {
             if cands.is_empty() {
                 let pairs = self.widen(radius, per_vertex);
@@ -635,7 +662,11 @@ impl Builder<'_> {
                 let (survivor, blend) = self.merge_topology(a, b, &cand);
                 changed[a as usize] = pass;
                 changed[b as usize] = pass;
-                finished.push((survivor, blend, pending));
+                finished.push(Merged {
+                    slot: survivor,
+                    blend,
+                    pending,
+                });
             }
             // 4. The new nodes' attributes, in parallel: their children all finished in earlier passes.
             let (done, new) = self.nodes.split_at_mut(first_new);
@@ -646,33 +677,31 @@ impl Builder<'_> {
                 .zip(finished.par_chunks(PRICE_RUN))
                 .flat_map_iter(|(nodes, finished)| {
                     let done = &*done;
+                    let mut fan = Vec::new();
                     nodes.iter_mut().enumerate().map(move |(i, node)| {
                         for stage in 0..3 {
-                            if let Some(&(next, _, pending)) =
-                                finished.get(i + (PREFETCH_AHEAD >> stage))
-                            {
-                                collapser.prefetch(next, stage as u32);
+                            if let Some(next) = finished.get(i + (PREFETCH_AHEAD >> stage)) {
+                                collapser.prefetch(next.slot, stage as u32);
                                 if stage == 0 {
-                                    for q in pending.into_iter().filter(|&q| q != NONE) {
+                                    for q in next.pending.into_iter().filter(|&q| q != NONE) {
                                         crate::prefetch(&leaves[q as usize]);
                                     }
                                 }
                             }
                         }
-                        let (slot, blend, pending) = &finished[i];
-                        finish_node(node, done, *blend, collapser, *slot, pending, leaves)
+                        finish_node(node, done, &finished[i], collapser, leaves, &mut fan)
                     })
                 })
                 .collect();
-            for (&(slot, _, _), kept) in finished.iter().zip(kept) {
-                self.samples[slot as usize] = kept;
+            for (merged, kept) in finished.iter().zip(kept) {
+                self.samples[merged.slot as usize] = kept;
             }
 
             // 5. Drop the stale pairs, price the survivors' pairs anew (each pair once).
             cands.retain(|e| {
                 changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
             });
-            let survivors: Vec<u32> = finished.iter().map(|&(s, _, _)| s).collect();
+            let survivors: Vec<u32> = finished.iter().map(|m| m.slot).collect();
             // A pair of two survivors is priced by the smaller slot only.
             let fresh = self.price_around(&survivors, |s, other| {
                 !(changed[other as usize] == pass && other < s)
