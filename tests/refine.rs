@@ -597,3 +597,54 @@ fn shading_deviation_follows_normal_turns() {
         assert!(b.shading <= b.radius * 1.0001);
     }
 }
+
+/// The runtime can start from any cut: a static LOD's cut (by error, at several levels) on random
+/// scenes and soups gives a front with exactly those nodes and the triangles the cut implies, and a
+/// camera walk goes on from it; lists that are not cuts are refused with a reason.
+#[test]
+fn fronts_start_from_any_cut() {
+    let meshes = (0..6u64)
+        .map(random_scene)
+        .chain((0..6u64).map(|s| random_soup(s, 30, 60)))
+        .filter(|m| !m.triangles.is_empty());
+    for (m, mesh) in meshes.enumerate() {
+        let tree = tree_of(&mesh);
+        let h = Hierarchy::new(&tree);
+        let new_id = Hierarchy::renumbering(&tree);
+        let root_error = tree.nodes[tree.root() as usize].error;
+        for level in [0.0, 0.01, 0.1, 0.5].map(|x| x * root_error) {
+            let cut = vtree::cut_at_error(&tree, level);
+            let nodes: Vec<u32> = cut.nodes.iter().map(|&u| new_id[u as usize]).collect();
+            let front = Front::at_cut(&h, &nodes).unwrap();
+            check_front(&h, &front).unwrap();
+            let mut got = front.active().to_vec();
+            let mut want = nodes.clone();
+            got.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(got, want, "mesh {m} at {level}");
+            assert_eq!(
+                front.triangle_count(),
+                cut.mesh.triangle_count(),
+                "mesh {m} at {level}: the cut's triangles"
+            );
+            let mut refiner = Refiner::starting_from(front, Settings::default());
+            for k in 0..20 {
+                let dir = Vec3::new((k as f32).cos(), 0.4, (k as f32).sin());
+                refiner.update(&h, &camera_at(&h, dir, 2.0, bounds(&h).0));
+                check_front(&h, &refiner.front).unwrap();
+            }
+        }
+        // Not cuts: a node under another, a leaf under none, a node twice, a node out of range.
+        let root = h.root();
+        let [c0, c1] = h.children(root);
+        for (bad, why) in [
+            (vec![root, c0], "under another"),
+            (vec![c0], "under no node"),
+            (vec![c0, c1, c1], "twice"),
+            (vec![h.node_count()], "not in the tree"),
+        ] {
+            let err = Front::at_cut(&h, &bad).err().expect("refused");
+            assert!(err.contains(why), "{bad:?}: {err}");
+        }
+    }
+}

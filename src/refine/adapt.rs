@@ -133,8 +133,14 @@ pub struct Refiner {
 
 impl Refiner {
     pub fn new(h: &Hierarchy, settings: Settings) -> Refiner {
+        Refiner::starting_from(Front::new(h), settings)
+    }
+
+    /// A runtime whose first frame adapts `front` (for instance [`Front::at_cut`]) instead of the
+    /// root alone.
+    pub fn starting_from(front: Front, settings: Settings) -> Refiner {
         Refiner {
-            front: Front::new(h),
+            front,
             settings,
             cursor: 0,
             quiet_visits: 0,

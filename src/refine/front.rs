@@ -118,6 +118,38 @@ impl Front {
         }
     }
 
+    /// The front at a given cut: `nodes` must be a cut through the tree (every leaf under exactly one
+    /// of them), for example a static LOD's (`vtree::cut_at_error` renumbered with
+    /// [`Hierarchy::renumbering`]). Reached by splitting down from the root, so its triangles are
+    /// exactly those the cut implies.
+    pub fn at_cut(h: &Hierarchy, nodes: &[u32]) -> Result<Front, String> {
+        let mut on_cut = vec![false; h.node_count() as usize];
+        for &u in nodes {
+            let slot = on_cut
+                .get_mut(u as usize)
+                .ok_or_else(|| format!("node {u} is not in the tree"))?;
+            if std::mem::replace(slot, true) {
+                return Err(format!("node {u} is listed twice"));
+            }
+        }
+        let mut front = Front::new(h);
+        let mut stack = vec![h.root()];
+        while let Some(u) = stack.pop() {
+            if on_cut[u as usize] {
+                continue;
+            }
+            if h.is_leaf(u) {
+                return Err(format!("leaf {u} is under no node of the cut"));
+            }
+            front.split(h, u);
+            stack.extend(h.children(u));
+        }
+        if let Some(&u) = nodes.iter().find(|&&u| !front.is_active(u)) {
+            return Err(format!("node {u} lies under another node of the cut"));
+        }
+        Ok(front)
+    }
+
     pub fn state(&self, u: u32) -> u8 {
         self.state[u as usize]
     }
