@@ -249,29 +249,105 @@ fn cone_of_node(n: &Node) -> NormalCone {
 /// A merge whose node [`finish_node`] has still to complete.
 #[derive(Clone, Copy)]
 struct Merged {
-    /// The surviving slot.
-    slot: u32,
     /// The children's shares of the attribute blend.
     blend: [f32; 2],
     /// Both slots' error samples, from before the merge.
     pending: Pending,
 }
 
-/// Colour, normal, bounding sphere and normal cone of a new node, from its (finished) children and the
-/// triangles now around its slot.
+/// The triangles around a live slot, read once: corners and unit normal (zero when degenerate), for
+/// the cone and for every distance in [`finish_node`]. Appended to `out`.
+fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle>) {
+    let c = collapser;
+    out.extend(c.faces_of(slot).map(|(_, f)| {
+        let [a, b, d] = f.map(|v| c.positions[v as usize]);
+        FanTriangle {
+            corners: [a, b, d],
+            normal: (b - a).cross(d - a).normalize_or_zero(),
+        }
+    }));
+}
+
+/// Merges handed to [`finish_node`] in one go, with the triangles around each survivor as they were
+/// right after its merge.
+#[derive(Default)]
+struct FinishBatch {
+    nodes: Vec<(Node, Merged)>,
+    /// The fans of `nodes`, one after another; `ends[i]` closes the i-th.
+    fans: Vec<FanTriangle>,
+    ends: Vec<u32>,
+}
+
+/// Merges per [`FinishBatch`] handed to the finishing thread (fewer when their fans reach
+/// [`FINISH_FANS`] triangles). Passes with fewer than four batches' worth finish on the merging
+/// thread, [`FINISH_HERE`] merges at a time, while their fans are still in cache.
+const FINISH_BATCH: usize = 256;
+const FINISH_FANS: usize = 2048;
+const FINISH_HERE: usize = 32;
+
+/// Where finished nodes go: the pass's new nodes in order, and the samples each keeps.
+struct Finished<'a> {
+    nodes: &'a mut [Node],
+    next: usize,
+    kept: Vec<Samples>,
+}
+
+impl<'a> Finished<'a> {
+    fn new(nodes: &'a mut [Node]) -> Self {
+        Finished {
+            nodes,
+            next: 0,
+            kept: Vec::new(),
+        }
+    }
+}
+
+impl FinishBatch {
+    fn push(&mut self, c: &Collapser, node: Node, slot: u32, blend: [f32; 2], pending: Pending) {
+        fan_of(c, slot, &mut self.fans);
+        self.ends.push(self.fans.len() as u32);
+        self.nodes.push((node, Merged { blend, pending }));
+    }
+
+    fn clear(&mut self) {
+        self.nodes.clear();
+        self.fans.clear();
+        self.ends.clear();
+    }
+
+    /// Completes the nodes in order into `out`.
+    fn finish(&self, done: &[Node], leaves: &[Vec3], out: &mut Finished) {
+        let mut start = 0;
+        for (i, (&(mut node, merged), &end)) in self.nodes.iter().zip(&self.ends).enumerate() {
+            // Children and samples are scattered: start loading the next ones'.
+            if let Some((next, m)) = self.nodes.get(i + PREFETCH_AHEAD) {
+                for c in next.children {
+                    crate::prefetch(&done[c as usize]);
+                }
+                for q in m.pending.into_iter().filter(|&q| q != NONE) {
+                    crate::prefetch(&leaves[q as usize]);
+                }
+            }
+            let fan = &self.fans[start as usize..end as usize];
+            out.kept
+                .push(finish_node(&mut node, done, &merged, fan, leaves));
+            out.nodes[out.next] = node;
+            out.next += 1;
+            start = end;
+        }
+    }
+}
+
+/// Colour, normal, bounding sphere, normal cone and error of a new node, from its (finished)
+/// children and `fan`, the triangles around its slot right after the merge ([`fan_of`]).
 fn finish_node(
     node: &mut Node,
     done: &[Node],
     merged: &Merged,
-    collapser: &Collapser,
+    fan: &[FanTriangle],
     leaves: &[Vec3],
-    fan: &mut Vec<FanTriangle>,
 ) -> Samples {
-    let Merged {
-        slot,
-        blend,
-        ref pending,
-    } = *merged;
+    let Merged { blend, ref pending } = *merged;
     let (ns, nt) = (
         &done[node.children[0] as usize],
         &done[node.children[1] as usize],
@@ -289,19 +365,6 @@ fn finish_node(
         sphere.center.z,
         sphere.radius,
     ];
-    // The triangles now around the merged vertex, read once: corners and unit normal (zero when
-    // degenerate), for the cone and for every distance below.
-    // `fan` is the caller's scratch, so that a pass allocates it once per thread, not once a node.
-    let c = collapser;
-    fan.clear();
-    fan.extend(c.faces_of(slot).map(|(_, f)| {
-        let [a, b, d] = f.map(|v| c.positions[v as usize]);
-        FanTriangle {
-            corners: [a, b, d],
-            normal: (b - a).cross(d - a).normalize_or_zero(),
-        }
-    }));
-    let fan = &*fan;
     let mut cone = cone_of_node(ns).union(cone_of_node(nt));
     for t in fan {
         cone = cone.union_normal(t.normal);
@@ -394,22 +457,19 @@ impl Builder<'_> {
     /// `vunify(a, b)` at the priced position, recorded as a new node. Returns the surviving slot.
     fn merge(&mut self, a: u32, b: u32, cand: &Candidate) -> u32 {
         let pending = self.pending(a, b);
-        let (survivor, blend) = self.merge_topology(a, b, cand);
-        let u = self.nodes.len() - 1;
-        let (done, new) = self.nodes.split_at_mut(u);
-        let merged = Merged {
-            slot: survivor,
-            blend,
-            pending,
-        };
-        self.samples[survivor as usize] = finish_node(
-            &mut new[0],
-            done,
-            &merged,
-            &self.collapser,
-            &self.mesh.positions,
-            &mut Vec::new(),
-        );
+        let mut nodes = std::mem::take(&mut self.nodes);
+        let u = nodes.len() as u32;
+        let (survivor, blend, mut node) = self.merge_topology(a, b, cand, &nodes, u);
+        let mut fan = Vec::new();
+        fan_of(&self.collapser, survivor, &mut fan);
+        let merged = Merged { blend, pending };
+        self.samples[survivor as usize] =
+            finish_node(&mut node, &nodes, &merged, &fan, &self.mesh.positions);
+        for c in node.children {
+            nodes[c as usize].parent = u;
+        }
+        nodes.push(node);
+        self.nodes = nodes;
         survivor
     }
 
@@ -421,11 +481,18 @@ impl Builder<'_> {
         out
     }
 
-    /// The sequential half of a merge: the working mesh, the tree links, position and error, the
-    /// vanishing triangles. Colour, normal, sphere and cone are left to [`finish_node`], which depends
-    /// only on finished nodes and so can run in parallel for a whole pass. Returns the surviving slot
-    /// and the children's shares of the attribute blend.
-    fn merge_topology(&mut self, a: u32, b: u32, cand: &Candidate) -> (u32, [f32; 2]) {
+    /// The sequential half of a merge: the working mesh, position and error, the vanishing
+    /// triangles. Returns the surviving slot, the children's shares of the attribute blend and the new
+    /// node `u`, whose colour, normal, sphere, cone and error [`finish_node`] completes; the caller
+    /// links its children (`nodes`, which it reads, holds them) to it and stores it.
+    fn merge_topology(
+        &mut self,
+        a: u32,
+        b: u32,
+        cand: &Candidate,
+        nodes: &[Node],
+        u: u32,
+    ) -> (u32, [f32; 2], Node) {
         // Keep the slot with more triangles: fewer to rewrite.
         let (a, b) = if self.collapser.face_count(b) > self.collapser.face_count(a) {
             (b, a)
@@ -435,10 +502,7 @@ impl Builder<'_> {
         self.removed.clear();
         self.collapser.unify(a, b, cand.position, &mut self.removed);
         let (ai, bi) = (a as usize, b as usize);
-        let u = self.nodes.len() as u32;
         let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
-        self.nodes[s].parent = u;
-        self.nodes[t].parent = u;
         let q = self.quadrics[bi];
         self.quadrics[ai] += q;
         self.weights[ai] = merged_weight(self.weights[ai], self.weights[bi]);
@@ -449,18 +513,16 @@ impl Builder<'_> {
         } else {
             [0.5, 0.5]
         };
-        self.nodes.push(Node {
+        let node = Node {
             position: cand.position.to_array(),
-            error: (cand.error as f32)
-                .max(self.nodes[s].error)
-                .max(self.nodes[t].error),
+            error: (cand.error as f32).max(nodes[s].error).max(nodes[t].error),
             color: [0.0; 3],
             parent: NONE,
             normal: [0.0; 3],
             children: [s as u32, t as u32],
             sphere: [0.0; 4],
             cone: [0.0; 4],
-        });
+        };
         self.node_of[ai] = u;
         let mesh = self.mesh;
         self.triangles.extend(
@@ -469,7 +531,7 @@ impl Builder<'_> {
                 .map(|&(f, _)| mesh.triangles[f as usize]),
         );
         self.vanish_offsets.push(self.triangles.len() as u32);
-        (a, blend)
+        (a, blend, node)
     }
 
     /// No candidate is left but several isolated vertices are: pair each with its nearest others within
@@ -575,7 +637,7 @@ impl Builder<'_> {
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
         let mut cands = self.priced_candidates();
         let mut chosen: Vec<usize> = Vec::new();
-        let mut finished: Vec<Merged> = Vec::new();
+        let mut survivors: Vec<u32> = Vec::new();
         while self.collapser.live_count() > 1 {
             if cands.is_empty() {
                 let pairs = self.widen(radius, per_vertex);
@@ -630,78 +692,114 @@ impl Builder<'_> {
             // this pass may have moved a neighbour), so it runs here, as in meshoptimizer. A merge that
             // would flip a triangle goes back to the list at a penalty, as in the greedy schedule; left
             // in place at its low cost, it would crowd the front of every later pass.
-            let first_new = self.nodes.len();
-            finished.clear();
-            for (i, (&index, &cand)) in chosen.iter().zip(&priced).enumerate() {
-                // The merges are scattered over the mesh: start loading the next ones' data.
-                for stage in 0..3 {
-                    if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
-                        let e = cands[next];
-                        self.collapser.prefetch(e.a, stage as u32);
-                        self.collapser.prefetch(e.b & SLOT, stage as u32);
-                        if stage == 0 {
-                            crate::prefetch(&self.quadrics[e.a as usize]);
-                            crate::prefetch(&self.node_of[e.a as usize]);
-                            crate::prefetch(&self.node_of[(e.b & SLOT) as usize]);
-                            crate::prefetch(&self.samples[e.a as usize]);
+            //
+            // 4, alongside. The new nodes' colour, normal, sphere, cone and error, on a second thread
+            // as the merges hand them over: each depends only on finished nodes (its children, from
+            // earlier passes) and on the triangles around its slot right after its merge, which the
+            // merge copies out while they are in cache. The merges are sequential and memory-bound, so
+            // this work, about as long again, would otherwise wait for them.
+            let mut nodes = std::mem::take(&mut self.nodes);
+            let first_new = nodes.len();
+            // Room for every chosen merge; what flip tests defer is cut off below.
+            nodes.resize(first_new + chosen.len(), bytemuck::Zeroable::zeroed());
+            let (done, new) = nodes.split_at_mut(first_new);
+            let (done, leaves) = (&*done, &self.mesh.positions[..]);
+            survivors.clear();
+            let kept = std::thread::scope(|scope| {
+                // A bounded queue: should the finisher fall behind, the merges wait rather than
+                // pile up fans.
+                let (tx, rx) = std::sync::mpsc::sync_channel::<FinishBatch>(4);
+                let mut here = None;
+                let finisher = if chosen.len() >= 4 * FINISH_BATCH {
+                    Some(scope.spawn(move || {
+                        let mut out = Finished::new(new);
+                        for batch in rx {
+                            batch.finish(done, leaves, &mut out);
                         }
-                    }
-                }
-                let e = &mut cands[index];
-                let (a, b) = (e.a, e.b & SLOT);
-                if e.b & PENALIZED == 0 && self.collapser.flips(a, b, cand.position) {
-                    let c = &self.collapser;
-                    let gap2 =
-                        c.positions[a as usize].distance_squared(c.positions[b as usize]) as f64;
-                    e.cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
-                    e.b |= PENALIZED;
-                    self.stats.flip_deferrals += 1;
-                    continue;
-                }
-                let pending = self.pending(a, b);
-                let (survivor, blend) = self.merge_topology(a, b, &cand);
-                changed[a as usize] = pass;
-                changed[b as usize] = pass;
-                finished.push(Merged {
-                    slot: survivor,
-                    blend,
-                    pending,
-                });
-            }
-            // 4. The new nodes' attributes, in parallel: their children all finished in earlier passes.
-            let (done, new) = self.nodes.split_at_mut(first_new);
-            let collapser = &self.collapser;
-            let leaves = &self.mesh.positions;
-            let kept: Vec<Samples> = new
-                .par_chunks_mut(PRICE_RUN)
-                .zip(finished.par_chunks(PRICE_RUN))
-                .flat_map_iter(|(nodes, finished)| {
-                    let done = &*done;
-                    let mut fan = Vec::new();
-                    nodes.iter_mut().enumerate().map(move |(i, node)| {
-                        for stage in 0..3 {
-                            if let Some(next) = finished.get(i + (PREFETCH_AHEAD >> stage)) {
-                                collapser.prefetch(next.slot, stage as u32);
-                                if stage == 0 {
-                                    for q in next.pending.into_iter().filter(|&q| q != NONE) {
-                                        crate::prefetch(&leaves[q as usize]);
-                                    }
-                                }
+                        out.kept
+                    }))
+                } else {
+                    here = Some(Finished::new(new));
+                    None
+                };
+                let mut batch = FinishBatch::default();
+                for (i, (&index, &cand)) in chosen.iter().zip(&priced).enumerate() {
+                    // The merges are scattered over the mesh: start loading the next ones' data.
+                    for stage in 0..3 {
+                        if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
+                            let e = cands[next];
+                            self.collapser.prefetch(e.a, stage as u32);
+                            self.collapser.prefetch(e.b & SLOT, stage as u32);
+                            if stage == 0 {
+                                crate::prefetch(&self.quadrics[e.a as usize]);
+                                crate::prefetch(&self.node_of[e.a as usize]);
+                                crate::prefetch(&self.node_of[(e.b & SLOT) as usize]);
+                                crate::prefetch(&self.samples[e.a as usize]);
                             }
                         }
-                        finish_node(node, done, &finished[i], collapser, leaves, &mut fan)
-                    })
-                })
-                .collect();
-            for (merged, kept) in finished.iter().zip(kept) {
-                self.samples[merged.slot as usize] = kept;
+                    }
+                    let e = &mut cands[index];
+                    let (a, b) = (e.a, e.b & SLOT);
+                    if e.b & PENALIZED == 0 && self.collapser.flips(a, b, cand.position) {
+                        let c = &self.collapser;
+                        let gap2 = c.positions[a as usize].distance_squared(c.positions[b as usize])
+                            as f64;
+                        e.cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
+                        e.b |= PENALIZED;
+                        self.stats.flip_deferrals += 1;
+                        continue;
+                    }
+                    let pending = self.pending(a, b);
+                    let u = (first_new + survivors.len()) as u32;
+                    let (survivor, blend, node) = self.merge_topology(a, b, &cand, done, u);
+                    changed[a as usize] = pass;
+                    changed[b as usize] = pass;
+                    survivors.push(survivor);
+                    batch.push(&self.collapser, node, survivor, blend, pending);
+                    match &mut here {
+                        Some(out) if batch.nodes.len() == FINISH_HERE => {
+                            batch.finish(done, leaves, out);
+                            batch.clear();
+                        }
+                        None if batch.nodes.len() == FINISH_BATCH
+                            || batch.fans.len() >= FINISH_FANS =>
+                        {
+                            // The finisher outlives the sender, so a send fails only if it
+                            // panicked, which `join` below reports.
+                            drop(tx.send(std::mem::take(&mut batch)));
+                        }
+                        _ => {}
+                    }
+                }
+                match (finisher, here) {
+                    (Some(finisher), _) => {
+                        drop(tx.send(batch));
+                        drop(tx);
+                        finisher
+                            .join()
+                            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+                    }
+                    (None, Some(mut out)) => {
+                        batch.finish(done, leaves, &mut out);
+                        out.kept
+                    }
+                    (None, None) => unreachable!("finished on one thread or the other"),
+                }
+            });
+            nodes.truncate(first_new + survivors.len());
+            self.nodes = nodes;
+            for (k, (&slot, kept)) in survivors.iter().zip(kept).enumerate() {
+                let u = (first_new + k) as u32;
+                for c in self.nodes[u as usize].children {
+                    self.nodes[c as usize].parent = u;
+                }
+                self.samples[slot as usize] = kept;
             }
 
             // 5. Drop the stale pairs, price the survivors' pairs anew (each pair once).
             cands.retain(|e| {
                 changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
             });
-            let survivors: Vec<u32> = finished.iter().map(|m| m.slot).collect();
             // A pair of two survivors is priced by the smaller slot only.
             let fresh = self.price_around(&survivors, |s, other| {
                 !(changed[other as usize] == pass && other < s)
