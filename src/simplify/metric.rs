@@ -118,7 +118,8 @@ impl Pricing<'_> {
         // A merge without an edge pulls two separate pieces of surface together: each moves by at least
         // half the gap, which the planes of two parallel sheets cannot see.
         let no_edge = if edge { 0.0 } else { 0.25 * gap2 };
-        let (position, cost) = match self.metric {
+        // The quadric's error at the position, where the metric has it already.
+        let (position, cost, plane_error) = match self.metric {
             Metric::Qem => {
                 let reach = PLACEMENT_REACH * gap2.sqrt();
                 let (wa, wb) = (
@@ -140,10 +141,14 @@ impl Pricing<'_> {
                             .unwrap_or(mid),
                     }
                 };
-                (best, q.error(best) + no_edge + TIE_BREAK * gap2)
+                let e = q.error(best);
+                (best, e + no_edge + TIE_BREAK * gap2, Some(e))
             }
-            Metric::QemMidpoint => (mid, q.error(mid) + no_edge + TIE_BREAK * gap2),
-            Metric::EdgeLength => (mid, gap2 + no_edge),
+            Metric::QemMidpoint => {
+                let e = q.error(mid);
+                (mid, e + no_edge + TIE_BREAK * gap2, Some(e))
+            }
+            Metric::EdgeLength => (mid, gap2 + no_edge, None),
             Metric::Hybrid => {
                 let (wa, wb) = (
                     self.vertex_weight[a as usize],
@@ -170,11 +175,12 @@ impl Pricing<'_> {
                 (
                     position,
                     self.hybrid.distance as f64 * e_dist + self.hybrid.feature as f64 * e_feature,
+                    None,
                 )
             }
         };
-        let error = q
-            .error(position)
+        let error = plane_error
+            .unwrap_or_else(|| q.error(position))
             .sqrt()
             .max(if edge { 0.0 } else { 0.5 * gap2.sqrt() });
         Candidate {
