@@ -92,25 +92,53 @@ impl Collapser {
     }
 
     /// Asks the memory system for what a merge or flip test of `slot` will read, a few merges
-    /// ahead, in three stages, each needing the previous one's data in cache to find its
-    /// addresses: 0, the slot's list of triangles and position; 1, the list's contents and its
-    /// triangles' corners; 2, the corners' positions. Only a hint.
+    /// ahead, in stages, each needing the previous one's data in cache to find its addresses: 0, the
+    /// slot's list of triangles, position and extra partners; 1, the list's triangles' corners and
+    /// liveness; 2, the corners' positions. Only a hint.
     pub fn prefetch(&self, slot: u32, stage: u32) {
         let s = slot as usize;
         match stage {
             0 => {
                 crate::prefetch(&self.faces[s]);
                 crate::prefetch(&self.positions[s]);
+                crate::prefetch(&self.extras[s]);
             }
             1 => {
                 for &f in self.faces[s].iter().take(16) {
                     crate::prefetch(&self.corners[f as usize]);
+                    crate::prefetch(&self.alive_face[f as usize]);
                 }
             }
             _ => {
                 for &f in self.faces[s].iter().take(16) {
                     for v in self.corners[f as usize] {
                         crate::prefetch(&self.positions[v as usize]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// [`Collapser::prefetch`] of both slots of a merge, plus, at stage 2 and later, the lists of
+    /// the third corners of the triangles the merge will make degenerate (it unlinks them there).
+    pub fn prefetch_pair(&self, a: u32, b: u32, stage: u32) {
+        self.prefetch(a, stage);
+        self.prefetch(b, stage);
+        if stage < 2 {
+            return;
+        }
+        for &f in self.faces[b as usize].iter().take(16) {
+            let c = self.corners[f as usize];
+            if c.contains(&a) {
+                for v in c {
+                    if v != a && v != b {
+                        let list = &self.faces[v as usize];
+                        crate::prefetch(list);
+                        if stage > 2
+                            && let Some(first) = list.first()
+                        {
+                            crate::prefetch(first);
+                        }
                     }
                 }
             }

@@ -725,11 +725,10 @@ impl Builder<'_> {
                 let mut batch = FinishBatch::default();
                 for (i, (&index, &cand)) in chosen.iter().zip(&priced).enumerate() {
                     // The merges are scattered over the mesh: start loading the next ones' data.
-                    for stage in 0..3 {
+                    for stage in 0..4 {
                         if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
                             let e = cands[next];
-                            self.collapser.prefetch(e.a, stage as u32);
-                            self.collapser.prefetch(e.b & SLOT, stage as u32);
+                            self.collapser.prefetch_pair(e.a, e.b & SLOT, stage as u32);
                             if stage == 0 {
                                 crate::prefetch(&self.quadrics[e.a as usize]);
                                 crate::prefetch(&self.node_of[e.a as usize]);
