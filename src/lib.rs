@@ -32,3 +32,22 @@ pub(crate) fn prefetch<T>(x: &T) {
     #[cfg(not(target_arch = "x86_64"))]
     let _ = x;
 }
+
+/// [`prefetch`] of every cache line `x` spans (a quadric is 88 bytes, a tree node 84: two lines
+/// each, often three).
+#[inline(always)]
+pub(crate) fn prefetch_lines<T>(x: &T) {
+    let start = (x as *const T as usize) & !63;
+    let end = x as *const T as usize + std::mem::size_of::<T>();
+    for line in (start..end).step_by(64) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as in `prefetch`; the lines overlap `x`.
+        unsafe {
+            core::arch::x86_64::_mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(
+                line as *const i8,
+            );
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = line;
+    }
+}

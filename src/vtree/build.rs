@@ -729,11 +729,22 @@ impl Builder<'_> {
                         if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
                             let e = cands[next];
                             self.collapser.prefetch_pair(e.a, e.b & SLOT, stage as u32);
-                            if stage == 0 {
-                                crate::prefetch(&self.quadrics[e.a as usize]);
-                                crate::prefetch(&self.node_of[e.a as usize]);
-                                crate::prefetch(&self.node_of[(e.b & SLOT) as usize]);
-                                crate::prefetch(&self.samples[e.a as usize]);
+                            for s in [e.a as usize, (e.b & SLOT) as usize] {
+                                match stage {
+                                    0 => {
+                                        crate::prefetch_lines(&self.quadrics[s]);
+                                        crate::prefetch(&self.node_of[s]);
+                                        crate::prefetch(&self.samples[s]);
+                                        crate::prefetch(&self.weights[s]);
+                                        crate::prefetch(&self.mass[s]);
+                                    }
+                                    1 => {
+                                        if let Some(node) = done.get(self.node_of[s] as usize) {
+                                            crate::prefetch_lines(node);
+                                        }
+                                    }
+                                    _ => {}
+                                }
                             }
                         }
                     }
