@@ -28,6 +28,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
+use std::sync::mpsc::TrySendError;
 use std::time::Instant;
 
 /// How merges are ordered.
@@ -285,20 +286,23 @@ const FINISH_BATCH: usize = 256;
 const FINISH_FANS: usize = 2048;
 const FINISH_HERE: usize = 32;
 
-/// Where finished nodes go: the pass's new nodes in order, and the samples each keeps.
-struct Finished<'a> {
+/// A batch and the places its finished nodes and samples go.
+type Handover<'a> = (FinishBatch, &'a mut [Node], &'a mut [Samples]);
+
+/// The part of a pass's new nodes and kept samples not yet handed to a batch.
+struct Output<'a> {
     nodes: &'a mut [Node],
-    next: usize,
-    kept: Vec<Samples>,
+    kept: &'a mut [Samples],
 }
 
-impl<'a> Finished<'a> {
-    fn new(nodes: &'a mut [Node]) -> Self {
-        Finished {
-            nodes,
-            next: 0,
-            kept: Vec::new(),
-        }
+impl<'a> Output<'a> {
+    /// The next `n` places.
+    fn take(&mut self, n: usize) -> (&'a mut [Node], &'a mut [Samples]) {
+        let (nodes, rest) = std::mem::take(&mut self.nodes).split_at_mut(n);
+        self.nodes = rest;
+        let (kept, rest) = std::mem::take(&mut self.kept).split_at_mut(n);
+        self.kept = rest;
+        (nodes, kept)
     }
 }
 
@@ -309,14 +313,15 @@ impl FinishBatch {
         self.nodes.push((node, Merged { blend, pending }));
     }
 
-    fn clear(&mut self) {
-        self.nodes.clear();
-        self.fans.clear();
-        self.ends.clear();
-    }
-
-    /// Completes the nodes in order into `out`.
-    fn finish(&self, done: &[Node], leaves: &[Vec3], out: &mut Finished) {
+    /// Completes the nodes into `out` and their kept samples into `kept` (both as long as the
+    /// batch); returns the emptied batch for reuse.
+    fn finish(
+        mut self,
+        done: &[Node],
+        leaves: &[Vec3],
+        out: &mut [Node],
+        kept: &mut [Samples],
+    ) -> FinishBatch {
         let mut start = 0;
         for (i, (&(mut node, merged), &end)) in self.nodes.iter().zip(&self.ends).enumerate() {
             // Children and samples are scattered: start loading the next ones'.
@@ -329,12 +334,14 @@ impl FinishBatch {
                 }
             }
             let fan = &self.fans[start as usize..end as usize];
-            out.kept
-                .push(finish_node(&mut node, done, &merged, fan, leaves));
-            out.nodes[out.next] = node;
-            out.next += 1;
+            kept[i] = finish_node(&mut node, done, &merged, fan, leaves);
+            out[i] = node;
             start = end;
         }
+        self.nodes.clear();
+        self.fans.clear();
+        self.ends.clear();
+        self
     }
 }
 
@@ -697,30 +704,32 @@ impl Builder<'_> {
             // as the merges hand them over: each depends only on finished nodes (its children, from
             // earlier passes) and on the triangles around its slot right after its merge, which the
             // merge copies out while they are in cache. The merges are sequential and memory-bound, so
-            // this work, about as long again, would otherwise wait for them.
+            // this work would otherwise wait for them; when the finisher falls behind, the merging
+            // thread finishes a batch itself.
             let mut nodes = std::mem::take(&mut self.nodes);
             let first_new = nodes.len();
             // Room for every chosen merge; what flip tests defer is cut off below.
             nodes.resize(first_new + chosen.len(), bytemuck::Zeroable::zeroed());
+            let mut kept = vec![[NONE; SAMPLES]; chosen.len()];
             let (done, new) = nodes.split_at_mut(first_new);
             let (done, leaves) = (&*done, &self.mesh.positions[..]);
             survivors.clear();
-            let kept = std::thread::scope(|scope| {
-                // A bounded queue: should the finisher fall behind, the merges wait rather than
-                // pile up fans.
-                let (tx, rx) = std::sync::mpsc::sync_channel::<FinishBatch>(4);
-                let mut here = None;
-                let finisher = if chosen.len() >= 4 * FINISH_BATCH {
-                    Some(scope.spawn(move || {
-                        let mut out = Finished::new(new);
-                        for batch in rx {
-                            batch.finish(done, leaves, &mut out);
+            std::thread::scope(|scope| {
+                let threaded = chosen.len() >= 4 * FINISH_BATCH;
+                let batch_len = if threaded { FINISH_BATCH } else { FINISH_HERE };
+                // Bounded: a full queue means the finisher is behind.
+                let (tx, rx) = std::sync::mpsc::sync_channel::<Handover>(2);
+                let finisher = threaded.then(|| {
+                    scope.spawn(move || {
+                        for (batch, nodes, kept) in rx {
+                            batch.finish(done, leaves, nodes, kept);
                         }
-                        out.kept
-                    }))
-                } else {
-                    here = Some(Finished::new(new));
-                    None
+                    })
+                });
+                // The parts of the pass's output not handed out yet.
+                let mut out = Output {
+                    nodes: new,
+                    kept: &mut kept,
                 };
                 let mut batch = FinishBatch::default();
                 for (i, (&index, &cand)) in chosen.iter().zip(&priced).enumerate() {
@@ -766,34 +775,28 @@ impl Builder<'_> {
                     changed[b as usize] = pass;
                     survivors.push(survivor);
                     batch.push(&self.collapser, node, survivor, blend, pending);
-                    match &mut here {
-                        Some(out) if batch.nodes.len() == FINISH_HERE => {
-                            batch.finish(done, leaves, out);
-                            batch.clear();
+                    if batch.nodes.len() == batch_len || batch.fans.len() >= FINISH_FANS {
+                        let (nodes, kept) = out.take(batch.nodes.len());
+                        let full = std::mem::take(&mut batch);
+                        let back = match &finisher {
+                            Some(_) => tx.try_send((full, nodes, kept)).err().map(|e| match e {
+                                // Behind (or panicked, which `join` below reports): finish here.
+                                TrySendError::Full(h) | TrySendError::Disconnected(h) => h,
+                            }),
+                            None => Some((full, nodes, kept)),
+                        };
+                        if let Some((full, nodes, kept)) = back {
+                            batch = full.finish(done, leaves, nodes, kept);
                         }
-                        None if batch.nodes.len() == FINISH_BATCH
-                            || batch.fans.len() >= FINISH_FANS =>
-                        {
-                            // The finisher outlives the sender, so a send fails only if it
-                            // panicked, which `join` below reports.
-                            drop(tx.send(std::mem::take(&mut batch)));
-                        }
-                        _ => {}
                     }
                 }
-                match (finisher, here) {
-                    (Some(finisher), _) => {
-                        drop(tx.send(batch));
-                        drop(tx);
-                        finisher
-                            .join()
-                            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-                    }
-                    (None, Some(mut out)) => {
-                        batch.finish(done, leaves, &mut out);
-                        out.kept
-                    }
-                    (None, None) => unreachable!("finished on one thread or the other"),
+                let (nodes, kept) = out.take(batch.nodes.len());
+                batch.finish(done, leaves, nodes, kept);
+                drop(tx);
+                if let Some(finisher) = finisher {
+                    finisher
+                        .join()
+                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
                 }
             });
             nodes.truncate(first_new + survivors.len());
