@@ -458,6 +458,11 @@ fn build(args: BuildArgs) -> Result<()> {
         "time       load {load_secs:.2} s, build {:.2} s",
         stats.seconds
     );
+    let p = &stats.phases;
+    println!(
+        "phases     features {:.2} s, close pairs {:.2} s, leaves {:.2} s, pricing {:.2} s, merging {:.2} s, re-pricing {:.2} s",
+        p.features, p.close_pairs, p.leaves, p.pricing, p.merging, p.repricing
+    );
     if let Some(p) = peak {
         println!(
             "memory     process peak {:.1} MiB, input included ({:.0} bytes per input triangle)",

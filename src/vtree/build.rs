@@ -94,6 +94,25 @@ pub struct BuildStats {
     /// Candidate pairs priced.
     pub pricings: u64,
     pub seconds: f64,
+    pub phases: Phases,
+}
+
+/// Wall-clock seconds of each part of a build (the parallel parts use every thread).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Phases {
+    /// Edge classification, Table 1 weights and quadrics.
+    pub features: f64,
+    /// Close non-edge pairs.
+    pub close_pairs: f64,
+    /// Leaf nodes and the working mesh.
+    pub leaves: f64,
+    /// Every candidate priced before the first pass; each pass's pairs chosen and priced.
+    pub pricing: f64,
+    /// The merges, their nodes finished alongside (greedy schedule: everything after the first
+    /// pricing).
+    pub merging: f64,
+    /// Stale pairs dropped and the pairs around each pass's merges priced anew.
+    pub repricing: f64,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -642,7 +661,9 @@ impl Builder<'_> {
         let mut changed: Vec<u32> = vec![0; n];
         let mut last_report = 0;
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
+        let clock = Instant::now();
         let mut cands = self.priced_candidates();
+        self.stats.phases.pricing += clock.elapsed().as_secs_f64();
         let mut chosen: Vec<usize> = Vec::new();
         let mut survivors: Vec<u32> = Vec::new();
         while self.collapser.live_count() > 1 {
@@ -658,6 +679,7 @@ impl Builder<'_> {
             }
             self.stats.rounds += 1;
             let pass = self.stats.rounds as u32;
+            let clock = Instant::now();
             let goal = ((self.collapser.live_count() as f64 * PASS_SHARE).ceil() as usize).max(1);
             // Only the cheapest few goals' worth can be reached in a pass: partition, then sort just those.
             let window = (goal * PASS_WINDOW).min(cands.len());
@@ -695,6 +717,8 @@ impl Builder<'_> {
                     this.price(e.a, e.b & SLOT, e.b & NO_EDGE == 0)
                 })
                 .collect();
+            self.stats.phases.pricing += clock.elapsed().as_secs_f64();
+            let clock = Instant::now();
             // 3. Merge, in cost order. The flip test must see the positions so far (earlier merges of
             // this pass may have moved a neighbour), so it runs here, as in meshoptimizer. A merge that
             // would flip a triangle goes back to the list at a penalty, as in the greedy schedule; left
@@ -809,6 +833,8 @@ impl Builder<'_> {
                 self.samples[slot as usize] = kept;
             }
 
+            self.stats.phases.merging += clock.elapsed().as_secs_f64();
+            let clock = Instant::now();
             // 5. Drop the stale pairs, price the survivors' pairs anew (each pair once).
             cands.retain(|e| {
                 changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
@@ -818,6 +844,7 @@ impl Builder<'_> {
                 !(changed[other as usize] == pass && other < s)
             });
             cands.extend(fresh);
+            self.stats.phases.repricing += clock.elapsed().as_secs_f64();
             let done = self.merges() as usize;
             if done - last_report >= PROGRESS_EVERY {
                 progress(done, total);
@@ -833,7 +860,10 @@ impl Builder<'_> {
         progress: &mut dyn FnMut(usize, usize),
     ) {
         let total = self.mesh.positions.len() - 1;
+        let clock = Instant::now();
         let mut heap = BinaryHeap::from(self.priced_candidates());
+        self.stats.phases.pricing = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
         let mut changed_at = vec![0u32; self.mesh.positions.len()];
         let mut neighbors: Vec<Neighbor> = Vec::new();
         loop {
@@ -881,6 +911,7 @@ impl Builder<'_> {
                 }
             }
             if self.collapser.live_count() <= 1 {
+                self.stats.phases.merging = clock.elapsed().as_secs_f64();
                 break;
             }
             let now = self.merges();
@@ -915,7 +946,10 @@ pub fn build(
     let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
 
     // 1. Features and quadrics.
+    let clock = Instant::now();
     let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+    let features_secs = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
     // 2. Close non-edge pairs (edges come from the working mesh itself). Found before the working mesh
     // and the nodes exist: the grid is the largest temporary of the build, and this keeps it off the peak.
     let mut stats = BuildStats {
@@ -943,6 +977,9 @@ pub fn build(
         Vec::new()
     };
     stats.proximity_pairs = close.len() as u32;
+    stats.phases.features = features_secs;
+    stats.phases.close_pairs = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
     // The edge list was only needed for the 2-ring test; free it before the tree grows.
     let features::Features {
         quadrics,
@@ -1041,6 +1078,7 @@ pub fn build(
             })
             .collect(),
     };
+    builder.stats.phases.leaves = clock.elapsed().as_secs_f64();
     let mut radius = options.pair_distance.max(1e-3) * diagonal;
     match options.schedule {
         Schedule::Passes => builder.run_passes(&mut radius, options.max_pairs_per_vertex, progress),
