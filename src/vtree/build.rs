@@ -147,8 +147,8 @@ const PASS_COST_BOUND: f32 = 1.5;
 const PASS_WINDOW: usize = 4;
 
 /// The sequential merge loop prefetches the slots of the merge this many ahead, the triangles
-/// around them half as many ahead, and those triangles' corners a quarter as many ahead (see
-/// [`Collapser::prefetch`]).
+/// around them half as many ahead, those triangles' corners a quarter as many ahead, and the lists
+/// the merge unlinks from an eighth as many ahead (see [`Builder::prefetch_merge`]).
 const PREFETCH_AHEAD: usize = 16;
 
 /// Slots priced one after another by one thread, prefetching ahead within the run.
@@ -499,6 +499,30 @@ impl Builder<'_> {
         survivor
     }
 
+    /// Asks for what merging `a` and `b` will read, in stages a few merges ahead (see
+    /// [`Collapser::prefetch_pair`]): the working mesh around them, and their quadrics, weights,
+    /// masses, samples and current nodes (`done`). Only a hint.
+    fn prefetch_merge(&self, a: u32, b: u32, stage: u32, done: &[Node]) {
+        self.collapser.prefetch_pair(a, b, stage);
+        for s in [a as usize, b as usize] {
+            match stage {
+                0 => {
+                    crate::prefetch_lines(&self.quadrics[s]);
+                    crate::prefetch(&self.node_of[s]);
+                    crate::prefetch(&self.samples[s]);
+                    crate::prefetch(&self.weights[s]);
+                    crate::prefetch(&self.mass[s]);
+                }
+                1 => {
+                    if let Some(node) = done.get(self.node_of[s] as usize) {
+                        crate::prefetch_lines(node);
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
     /// Both slots' error samples, before they merge.
     fn pending(&self, a: u32, b: u32) -> Pending {
         let mut out = [NONE; 2 * SAMPLES];
@@ -761,24 +785,7 @@ impl Builder<'_> {
                     for stage in 0..4 {
                         if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
                             let e = cands[next];
-                            self.collapser.prefetch_pair(e.a, e.b & SLOT, stage as u32);
-                            for s in [e.a as usize, (e.b & SLOT) as usize] {
-                                match stage {
-                                    0 => {
-                                        crate::prefetch_lines(&self.quadrics[s]);
-                                        crate::prefetch(&self.node_of[s]);
-                                        crate::prefetch(&self.samples[s]);
-                                        crate::prefetch(&self.weights[s]);
-                                        crate::prefetch(&self.mass[s]);
-                                    }
-                                    1 => {
-                                        if let Some(node) = done.get(self.node_of[s] as usize) {
-                                            crate::prefetch_lines(node);
-                                        }
-                                    }
-                                    _ => {}
-                                }
-                            }
+                            self.prefetch_merge(e.a, e.b & SLOT, stage, done);
                         }
                     }
                     let e = &mut cands[index];
