@@ -6,6 +6,7 @@
 //! `g(v)` over the table `VI` (eq. 4), with path compression.
 
 use glam::Vec3;
+use smallvec::SmallVec;
 
 /// Marks an entry of [`Collapser::extras`] as a loose edge (left behind by a vanished triangle) rather
 /// than a proximity pair.
@@ -34,8 +35,8 @@ pub struct Collapser {
     /// Current slot corners of each triangle (meaningless once it has vanished).
     corners: Vec<[u32; 3]>,
     alive_face: Vec<bool>,
-    /// Triangles around each live slot; may hold vanished ones until the slot is next touched.
-    faces: Vec<Vec<u32>>,
+    /// Triangles around each live slot (exact: a vanished triangle is unlinked from every corner).
+    faces: Vec<FaceList>,
     /// Other partners of each slot: proximity pairs and loose edges, possibly naming merged slots.
     /// Boxed, because most slots have none: an empty `Vec` would cost 24 bytes a slot, `None` costs 8.
     #[allow(clippy::box_collection)] // deliberate: 8 bytes a slot instead of 24
@@ -47,6 +48,26 @@ pub struct Collapser {
     keys: Vec<([u32; 3], u32)>,
     /// Scratch: third corners of the triangles a merge made degenerate.
     loose: Vec<u32>,
+}
+
+/// The triangles around a slot: up to 14 in the list's own cache line, together with its length, so
+/// that reading a list is one miss, not two (header, then contents); longer lists (high valence,
+/// coarse levels) spill to the heap.
+#[derive(Clone, Default)]
+#[repr(align(64))]
+struct FaceList(SmallVec<[u32; 14]>);
+
+impl std::ops::Deref for FaceList {
+    type Target = SmallVec<[u32; 14]>;
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for FaceList {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
 }
 
 /// A partner of a slot, and whether an edge joins them.
@@ -65,9 +86,9 @@ impl Collapser {
                 degree[v as usize] += 1;
             }
         }
-        let mut faces: Vec<Vec<u32>> = degree
+        let mut faces: Vec<FaceList> = degree
             .iter()
-            .map(|&d| Vec::with_capacity(d as usize))
+            .map(|&d| FaceList(SmallVec::with_capacity(d as usize)))
             .collect();
         for (f, t) in triangles.iter().enumerate() {
             for &v in t {
@@ -249,7 +270,7 @@ impl Collapser {
         self.positions[ai] = position;
         let mut around_a = std::mem::take(&mut self.faces[ai]);
         let around_b = std::mem::take(&mut self.faces[bi]);
-        for f in around_b {
+        for f in around_b.0 {
             let fi = f as usize;
             let c = &mut self.corners[fi];
             if c.contains(&a) {
@@ -296,7 +317,7 @@ impl Collapser {
             }
         }
         self.keys = keys;
-        around_a.retain(|&f| self.alive_face[f as usize]);
+        around_a.retain(|f| self.alive_face[*f as usize]);
         // A loose edge only where no surviving triangle still carries the edge: almost always one does,
         // and redundant entries would be re-sorted and re-searched at every later merge.
         let mut loose = std::mem::take(&mut self.loose);

@@ -167,8 +167,25 @@ struct Entry {
     cost: u32,
     a: u32,
     b: u32,
-    /// Greedy schedule: valid while neither slot changed after this merge count.
+}
+
+/// A pair in the greedy schedule's queue, ordered as its entry: valid while neither slot changed
+/// after merge number `created`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Queued {
+    entry: Entry,
     created: u32,
+}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Queued {
+    fn cmp(&self, o: &Self) -> Ordering {
+        self.entry.cmp(&o.entry)
+    }
 }
 
 impl PartialEq for Entry {
@@ -657,7 +674,6 @@ impl Builder<'_> {
                                 cost,
                                 a,
                                 b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
-                                created: 0,
                             });
                         }
                     }
@@ -697,7 +713,6 @@ impl Builder<'_> {
                     cost: key(self.price(a, b, false).cost),
                     a,
                     b: b | NO_EDGE,
-                    created: 0,
                 }));
                 continue;
             }
@@ -868,20 +883,24 @@ impl Builder<'_> {
     ) {
         let total = self.mesh.positions.len() - 1;
         let clock = Instant::now();
-        let mut heap = BinaryHeap::from(self.priced_candidates());
+        let mut heap: BinaryHeap<Queued> = self
+            .priced_candidates()
+            .into_iter()
+            .map(|entry| Queued { entry, created: 0 })
+            .collect();
         self.stats.phases.pricing = clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         let mut changed_at = vec![0u32; self.mesh.positions.len()];
         let mut neighbors: Vec<Neighbor> = Vec::new();
         loop {
-            while let Some(e) = heap.pop() {
+            while let Some(Queued { entry: e, created }) = heap.pop() {
                 self.stats.rounds += 1;
                 let (a, b) = (e.a, e.b & SLOT);
                 let c = &self.collapser;
                 if !c.is_live(a)
                     || !c.is_live(b)
-                    || changed_at[a as usize] > e.created
-                    || changed_at[b as usize] > e.created
+                    || changed_at[a as usize] > created
+                    || changed_at[b as usize] > created
                 {
                     continue; // stale
                 }
@@ -890,10 +909,12 @@ impl Builder<'_> {
                     let gap2 =
                         c.positions[a as usize].distance_squared(c.positions[b as usize]) as f64;
                     let cost = key(FLIP_PENALTY * cand.cost + 0.25 * gap2);
-                    heap.push(Entry {
-                        cost,
-                        a,
-                        b: e.b | PENALIZED,
+                    heap.push(Queued {
+                        entry: Entry {
+                            cost,
+                            a,
+                            b: e.b | PENALIZED,
+                        },
                         created: self.merges(),
                     });
                     self.stats.flip_deferrals += 1;
@@ -906,10 +927,12 @@ impl Builder<'_> {
                 self.stats.pricings += neighbors.len() as u64;
                 for nb in &neighbors {
                     let cost = key(self.price(s, nb.slot, nb.edge).cost);
-                    heap.push(Entry {
-                        cost,
-                        a: s,
-                        b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
+                    heap.push(Queued {
+                        entry: Entry {
+                            cost,
+                            a: s,
+                            b: nb.slot | if nb.edge { 0 } else { NO_EDGE },
+                        },
                         created: now,
                     });
                 }
@@ -924,10 +947,12 @@ impl Builder<'_> {
             let now = self.merges();
             for (a, b) in self.widen(radius, per_vertex) {
                 let cost = key(self.price(a, b, false).cost);
-                heap.push(Entry {
-                    cost,
-                    a,
-                    b: b | NO_EDGE,
+                heap.push(Queued {
+                    entry: Entry {
+                        cost,
+                        a,
+                        b: b | NO_EDGE,
+                    },
                     created: now,
                 });
             }
