@@ -650,25 +650,31 @@ impl Builder<'_> {
         slots
             .par_chunks(PRICE_RUN)
             .fold_with(
-                (Vec::new(), Vec::new()),
-                |(mut out, mut scratch): (Vec<Entry>, Vec<Neighbor>), run| {
+                (Vec::new(), Vec::new(), Vec::new()),
+                |(mut out, mut here, mut next): (Vec<Entry>, Vec<Neighbor>, Vec<Neighbor>), run| {
+                    if let Some(&first) = run.first() {
+                        self.collapser.neighbors(first, &mut next);
+                    }
                     for (i, &a) in run.iter().enumerate() {
                         // Scattered slots: load the next ones' triangles while this one is priced.
                         for stage in 0..3 {
-                            if let Some(&next) = run.get(i + (PREFETCH_AHEAD >> stage)) {
-                                self.collapser.prefetch(next, stage as u32);
-                                if stage == 2 {
-                                    // Pricing reads the neighbours' quadrics too.
-                                    for (_, corners) in self.collapser.faces_of(next).take(16) {
-                                        for v in corners {
-                                            crate::prefetch(&self.quadrics[v as usize]);
-                                        }
-                                    }
-                                }
+                            if let Some(&ahead) = run.get(i + (PREFETCH_AHEAD >> stage)) {
+                                self.collapser.prefetch(ahead, stage as u32);
                             }
                         }
-                        self.collapser.neighbors(a, &mut scratch);
-                        for nb in scratch.iter().filter(|nb| keep(a, nb.slot)) {
+                        // The neighbours of the next slot are known a slot ahead: load what pricing
+                        // them reads (quadric, weight, position) while this slot's pairs are priced.
+                        std::mem::swap(&mut here, &mut next);
+                        if let Some(&ahead) = run.get(i + 1) {
+                            self.collapser.neighbors(ahead, &mut next);
+                            for nb in &next {
+                                let v = nb.slot as usize;
+                                crate::prefetch_lines(&self.quadrics[v]);
+                                crate::prefetch(&self.weights[v]);
+                                crate::prefetch(&self.collapser.positions[v]);
+                            }
+                        }
+                        for nb in here.iter().filter(|nb| keep(a, nb.slot)) {
                             let cost = key(self.price(a, nb.slot, nb.edge).cost);
                             out.push(Entry {
                                 cost,
@@ -677,10 +683,10 @@ impl Builder<'_> {
                             });
                         }
                     }
-                    (out, scratch)
+                    (out, here, next)
                 },
             )
-            .map(|(out, _)| out)
+            .map(|(out, _, _)| out)
             .reduce(Vec::new, |mut x, mut y| {
                 x.append(&mut y);
                 x
