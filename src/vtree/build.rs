@@ -756,10 +756,21 @@ impl Builder<'_> {
             // 2. Price them in parallel (their quadrics and positions do not change within the pass).
             let this = &*self;
             let priced: Vec<Candidate> = chosen
-                .par_iter()
-                .map(|&index| {
-                    let e = cands[index];
-                    this.price(e.a, e.b & SLOT, e.b & NO_EDGE == 0)
+                .par_chunks(PRICE_RUN)
+                .flat_map_iter(|run| {
+                    run.iter().enumerate().map(|(i, &index)| {
+                        // Scattered pairs: load the ones a few ahead while this one is priced.
+                        if let Some(&ahead) = run.get(i + PREFETCH_AHEAD / 2) {
+                            let e = cands[ahead];
+                            for s in [e.a as usize, (e.b & SLOT) as usize] {
+                                crate::prefetch_lines(&this.quadrics[s]);
+                                crate::prefetch(&this.weights[s]);
+                                crate::prefetch(&this.collapser.positions[s]);
+                            }
+                        }
+                        let e = cands[index];
+                        this.price(e.a, e.b & SLOT, e.b & NO_EDGE == 0)
+                    })
                 })
                 .collect();
             self.stats.phases.pricing += clock.elapsed().as_secs_f64();
