@@ -22,15 +22,7 @@ pub mod vtree;
 /// ahead so that the loads overlap instead of queueing one after another.
 #[inline(always)]
 pub(crate) fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: prefetching is a hint with no architectural effect; any address is allowed.
-    unsafe {
-        core::arch::x86_64::_mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(
-            (x as *const T).cast(),
-        );
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
+    prefetch_address(x as *const T as usize);
 }
 
 /// [`prefetch`] of every cache line `x` spans (a quadric is 88 bytes, a tree node 84: two lines
@@ -40,14 +32,19 @@ pub(crate) fn prefetch_lines<T>(x: &T) {
     let start = (x as *const T as usize) & !63;
     let end = x as *const T as usize + std::mem::size_of::<T>();
     for line in (start..end).step_by(64) {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as in `prefetch`; the lines overlap `x`.
-        unsafe {
-            core::arch::x86_64::_mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(
-                line as *const i8,
-            );
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = line;
+        prefetch_address(line);
     }
+}
+
+#[inline(always)]
+fn prefetch_address(address: usize) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: prefetching is a hint with no architectural effect; any address is allowed.
+    unsafe {
+        core::arch::x86_64::_mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(
+            address as *const i8,
+        );
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = address;
 }
