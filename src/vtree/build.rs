@@ -462,7 +462,9 @@ struct Builder<'m> {
     /// The tree node each live slot currently is.
     node_of: Vec<u32>,
     nodes: Vec<Node>,
-    triangles: Vec<[u32; 3]>,
+    /// The input triangles that vanish at each merge, by index, in node order. The corners are read
+    /// after the merges ([`build`]): read here, each would be a cache miss on the sequential path.
+    vanished: Vec<u32>,
     vanish_offsets: Vec<u32>,
     metric: Metric,
     hybrid: HybridWeights,
@@ -591,13 +593,8 @@ impl Builder<'_> {
             cone: [0.0; 4],
         };
         self.node_of[ai] = u;
-        let mesh = self.mesh;
-        self.triangles.extend(
-            self.removed
-                .iter()
-                .map(|&(f, _)| mesh.triangles[f as usize]),
-        );
-        self.vanish_offsets.push(self.triangles.len() as u32);
+        self.vanished.extend(self.removed.iter().map(|&(f, _)| f));
+        self.vanish_offsets.push(self.vanished.len() as u32);
         (a, blend, node)
     }
 
@@ -1108,7 +1105,7 @@ pub fn build(
         mass,
         node_of: (0..n as u32).collect(),
         nodes,
-        triangles: Vec::with_capacity(mesh.triangles.len()),
+        vanished: Vec::with_capacity(mesh.triangles.len()),
         vanish_offsets: {
             let mut v = Vec::with_capacity(n);
             v.push(0);
@@ -1135,12 +1132,23 @@ pub fn build(
     }
     progress(n - 1, n - 1);
 
-    let mut stats = builder.stats;
+    let Builder {
+        mut stats,
+        nodes,
+        vanished,
+        vanish_offsets,
+        ..
+    } = builder;
+    let triangles = vanished
+        .par_iter()
+        .map(|&f| mesh.triangles[f as usize])
+        .collect();
+    drop(vanished);
     let tree = VertexTree {
         leaf_count: n as u32,
-        nodes: builder.nodes,
-        triangles: builder.triangles,
-        vanish_offsets: builder.vanish_offsets,
+        nodes,
+        triangles,
+        vanish_offsets,
         metric: options.metric,
         has_colors: mesh.colors.is_some(),
         has_normals: mesh.normals.is_some(),
