@@ -1,8 +1,8 @@
 //! What a merge costs and where the merged vertex goes: the four metrics `--metric` chooses from.
 
 use super::features::{CREASE_WEIGHT, DART_WEIGHT};
-use super::quadric::Quadric;
-use glam::Vec3;
+use super::quadric::{LocalQuadric, Quadric};
+use glam::{DVec3, Vec3};
 
 #[derive(
     Clone,
@@ -92,75 +92,98 @@ pub struct Candidate {
     pub error: f64,
 }
 
-pub struct Pricing<'a> {
+/// Everything pricing reads of one end of a pair, in one cache line: a pass prices each vertex's
+/// pairs with its neighbours, which lie scattered in memory.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub struct PairEnd {
+    /// The vertex's quadric, about `position`.
+    pub quadric: LocalQuadric,
+    pub position: Vec3,
+    /// Table 1 weight.
+    pub weight: f32,
+}
+
+impl PairEnd {
+    /// `quadric` is about the world's origin.
+    pub fn new(quadric: &Quadric, position: Vec3, weight: f32) -> PairEnd {
+        PairEnd {
+            quadric: LocalQuadric::new(&quadric.shifted(position.as_dvec3())),
+            position,
+            weight,
+        }
+    }
+
+    /// The quadric about `origin`.
+    pub fn quadric_about(&self, origin: DVec3) -> Quadric {
+        self.quadric.get().shifted(origin - self.position.as_dvec3())
+    }
+
+    /// The end that `a` and `b` merge into, at `position`: the quadrics' sum, the features kept.
+    pub fn merged(a: &PairEnd, b: &PairEnd, position: Vec3) -> PairEnd {
+        let p = position.as_dvec3();
+        PairEnd {
+            quadric: LocalQuadric::new(&(a.quadric_about(p) + b.quadric_about(p))),
+            position,
+            weight: merged_weight(a.weight, b.weight),
+        }
+    }
+}
+
+pub struct Pricing {
     pub metric: Metric,
     pub hybrid: HybridWeights,
     pub mean_edge_length: f32,
-    pub vertex_weight: &'a [f32],
 }
 
-impl Pricing<'_> {
-    #[allow(clippy::too_many_arguments)] // both ends' position, quadric and slot, and the edge flag
-    pub fn price(
-        &self,
-        pa: Vec3,
-        qa: &Quadric,
-        a: u32,
-        pb: Vec3,
-        qb: &Quadric,
-        b: u32,
-        edge: bool,
-    ) -> Candidate {
-        let q = *qa + *qb;
-        let (da, db) = (pa.as_dvec3(), pb.as_dvec3());
+impl Pricing {
+    pub fn price(&self, a: &PairEnd, b: &PairEnd, edge: bool) -> Candidate {
+        let (da, db) = (a.position.as_dvec3(), b.position.as_dvec3());
         let mid = 0.5 * (da + db);
+        // Both quadrics about the midpoint: positions below are relative to it.
+        let q = a.quadric_about(mid) + b.quadric_about(mid);
+        let (ra, rb) = (da - mid, db - mid);
         let gap2 = da.distance_squared(db);
         // A merge without an edge pulls two separate pieces of surface together: each moves by at least
         // half the gap, which the planes of two parallel sheets cannot see.
         let no_edge = if edge { 0.0 } else { 0.25 * gap2 };
         // The quadric's error at the position, where the metric has it already.
-        let (position, cost, plane_error) = match self.metric {
+        let (wa, wb) = (a.weight, b.weight);
+        // (position relative to the midpoint, cost, the quadric's error there where the metric has it)
+        let (offset, cost, plane_error) = match self.metric {
             Metric::Qem => {
                 let reach = PLACEMENT_REACH * gap2.sqrt();
-                let (wa, wb) = (
-                    self.vertex_weight[a as usize],
-                    self.vertex_weight[b as usize],
-                );
                 // A more featured end keeps its place (Table 1: a corner stays a corner, a crease vertex
                 // stays on its crease): the optimum of a quadric near a feature slides along it, and
                 // on CAD parts that rounds corners off (this halves fandisk's max error at 10 %).
                 let best = if wa != wb {
-                    if wa > wb { da } else { db }
+                    if wa > wb { ra } else { rb }
                 } else {
                     match q.optimum() {
-                        Some(v) if v.distance(mid) <= reach.max(f64::EPSILON) => v,
+                        Some(v) if v.length() <= reach.max(f64::EPSILON) => v,
                         // Ill-conditioned: the best of the two ends and the midpoint.
-                        _ => [da, db, mid]
+                        _ => [ra, rb, DVec3::ZERO]
                             .into_iter()
                             .min_by(|x, y| q.eval(*x).total_cmp(&q.eval(*y)))
-                            .unwrap_or(mid),
+                            .unwrap_or(DVec3::ZERO),
                     }
                 };
                 let e = q.error(best);
                 (best, e + no_edge + TIE_BREAK * gap2, Some(e))
             }
             Metric::QemMidpoint => {
-                let e = q.error(mid);
-                (mid, e + no_edge + TIE_BREAK * gap2, Some(e))
+                let e = q.error(DVec3::ZERO);
+                (DVec3::ZERO, e + no_edge + TIE_BREAK * gap2, Some(e))
             }
-            Metric::EdgeLength => (mid, gap2 + no_edge, None),
+            Metric::EdgeLength => (DVec3::ZERO, gap2 + no_edge, None),
             Metric::Hybrid => {
-                let (wa, wb) = (
-                    self.vertex_weight[a as usize],
-                    self.vertex_weight[b as usize],
-                );
                 // Keep the more featured vertex where it is (a corner stays a corner).
                 let position = if wa > wb {
-                    da
+                    ra
                 } else if wb > wa {
-                    db
+                    rb
                 } else {
-                    mid
+                    DVec3::ZERO
                 };
                 let pair = if !edge {
                     NO_EDGE_PAIR
@@ -180,12 +203,20 @@ impl Pricing<'_> {
             }
         };
         let error = plane_error
-            .unwrap_or_else(|| q.error(position))
+            .unwrap_or_else(|| q.error(offset))
             .sqrt()
             .max(if edge { 0.0 } else { 0.5 * gap2.sqrt() });
+        // An end kept in place stays exactly where it was.
+        let position = if offset == ra {
+            a.position
+        } else if offset == rb {
+            b.position
+        } else {
+            (mid + offset).as_vec3()
+        };
         Candidate {
             cost,
-            position: position.as_vec3(),
+            position,
             error,
         }
     }

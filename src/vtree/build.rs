@@ -21,9 +21,9 @@ use crate::simplify::bounds::{NormalCone, Sphere};
 use crate::simplify::collapse::{Collapser, Neighbor};
 use crate::simplify::features;
 use crate::simplify::geometry::closest_point_on_triangle;
-use crate::simplify::metric::{Candidate, HybridWeights, Pricing, merged_weight};
+use crate::simplify::metric::{Candidate, HybridWeights, PairEnd, Pricing};
 use crate::simplify::pairs::close_pairs;
-use crate::simplify::{Metric, quadric::Quadric};
+use crate::simplify::Metric;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::cmp::Ordering;
@@ -454,9 +454,8 @@ type Pending = [u32; 2 * SAMPLES];
 struct Builder<'m> {
     mesh: &'m Mesh,
     collapser: Collapser,
-    quadrics: Vec<Quadric>,
-    /// Table 1 weight of each slot (hybrid metric).
-    weights: Vec<f32>,
+    /// Each slot's quadric (about its position) and Table 1 weight, as pricing reads them.
+    ends: Vec<PairEnd>,
     /// Surface area each slot stands for: the weight of attribute averages.
     mass: Vec<f32>,
     /// The tree node each live slot currently is.
@@ -481,18 +480,8 @@ impl Builder<'_> {
             metric: self.metric,
             hybrid: self.hybrid,
             mean_edge_length: self.mean_edge_length,
-            vertex_weight: &self.weights,
         };
-        let c = &self.collapser;
-        pricing.price(
-            c.positions[a as usize],
-            &self.quadrics[a as usize],
-            a,
-            c.positions[b as usize],
-            &self.quadrics[b as usize],
-            b,
-            edge,
-        )
+        pricing.price(&self.ends[a as usize], &self.ends[b as usize], edge)
     }
 
     fn merges(&self) -> u32 {
@@ -526,10 +515,9 @@ impl Builder<'_> {
         for s in [a as usize, b as usize] {
             match stage {
                 0 => {
-                    crate::prefetch_lines(&self.quadrics[s]);
+                    crate::prefetch(&self.ends[s]);
                     crate::prefetch(&self.node_of[s]);
                     crate::prefetch(&self.samples[s]);
-                    crate::prefetch(&self.weights[s]);
                     crate::prefetch(&self.mass[s]);
                 }
                 1 => {
@@ -572,9 +560,7 @@ impl Builder<'_> {
         self.collapser.unify(a, b, cand.position, &mut self.removed);
         let (ai, bi) = (a as usize, b as usize);
         let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
-        let q = self.quadrics[bi];
-        self.quadrics[ai] += q;
-        self.weights[ai] = merged_weight(self.weights[ai], self.weights[bi]);
+        self.ends[ai] = PairEnd::merged(&self.ends[ai], &self.ends[bi], cand.position);
         let (ms, mt) = (self.mass[ai], self.mass[bi]);
         self.mass[ai] = ms + mt;
         let blend = if ms + mt > 0.0 {
@@ -665,10 +651,7 @@ impl Builder<'_> {
                         if let Some(&ahead) = run.get(i + 1) {
                             self.collapser.neighbors(ahead, &mut next);
                             for nb in &next {
-                                let v = nb.slot as usize;
-                                crate::prefetch_lines(&self.quadrics[v]);
-                                crate::prefetch(&self.weights[v]);
-                                crate::prefetch(&self.collapser.positions[v]);
+                                crate::prefetch(&self.ends[nb.slot as usize]);
                             }
                         }
                         for nb in here.iter().filter(|nb| keep(a, nb.slot)) {
@@ -760,9 +743,7 @@ impl Builder<'_> {
                         if let Some(&ahead) = run.get(i + PREFETCH_AHEAD / 2) {
                             let e = cands[ahead];
                             for s in [e.a as usize, (e.b & SLOT) as usize] {
-                                crate::prefetch_lines(&this.quadrics[s]);
-                                crate::prefetch(&this.weights[s]);
-                                crate::prefetch(&this.collapser.positions[s]);
+                                crate::prefetch(&this.ends[s]);
                             }
                         }
                         let e = cands[index];
@@ -1096,12 +1077,19 @@ pub fn build(
     }
     drop(close);
 
+    let ends: Vec<PairEnd> = quadrics
+        .par_iter()
+        .zip(&vertex_weight)
+        .zip(&mesh.positions)
+        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
+        .collect();
+    drop((quadrics, vertex_weight));
+
     // 3-5. Merge until one vertex is left.
     let mut builder = Builder {
         mesh,
         collapser,
-        quadrics,
-        weights: vertex_weight,
+        ends,
         mass,
         node_of: (0..n as u32).collect(),
         nodes,
