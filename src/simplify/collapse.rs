@@ -44,8 +44,6 @@ pub struct Collapser {
     /// `VI`: the slot a merged slot went into, or `ALIVE`.
     merged_into: Vec<u32>,
     live: usize,
-    /// Scratch for the coincidence test, kept to spare an allocation per merge.
-    keys: Vec<([u32; 3], u32)>,
     /// Scratch: third corners of the triangles a merge made degenerate.
     loose: Vec<u32>,
 }
@@ -103,7 +101,6 @@ impl Collapser {
             extras: vec![None; n],
             merged_into: vec![ALIVE; n],
             live: n,
-            keys: Vec::new(),
             loose: Vec::new(),
         }
     }
@@ -269,6 +266,7 @@ impl Collapser {
         let (ai, bi) = (a as usize, b as usize);
         self.positions[ai] = position;
         let mut around_a = std::mem::take(&mut self.faces[ai]);
+        let first_moved = around_a.len();
         let around_b = std::mem::take(&mut self.faces[bi]);
         for f in around_b.0 {
             let fi = f as usize;
@@ -294,29 +292,40 @@ impl Collapser {
             }
             around_a.push(f);
         }
-        // Coincident triangles (Fig. 3b): any new duplicate has the merged vertex as a corner, so only
-        // the triangles around `a` need comparing. The one that was around `a` before survives.
-        let mut keys = std::mem::take(&mut self.keys);
-        keys.clear();
-        keys.extend(around_a.iter().enumerate().map(|(i, &f)| {
-            let mut k = self.corners[f as usize];
-            k.sort_unstable();
-            (k, i as u32)
-        }));
-        keys.sort_unstable();
-        for w in keys.windows(2) {
-            if w[0].0 == w[1].0 {
-                let f = around_a[w[1].1 as usize];
-                self.alive_face[f as usize] = false;
-                removed.push((f, Vanish::Coincident));
-                for v in self.corners[f as usize] {
-                    if v != a {
-                        self.unlink(v, f);
-                    }
+        // Coincident triangles (Fig. 3b): a new duplicate has the merged vertex as a corner and came
+        // from `b` (the triangles around `a` were distinct, as were those around `b`). Of equal
+        // triangles the first in the list survives, the one that was around `a`; the others vanish in
+        // the order of their sorted corners.
+        let others = |c: [u32; 3]| {
+            let [x, y] = match c.iter().position(|&v| v == a) {
+                Some(0) => [c[1], c[2]],
+                Some(1) => [c[0], c[2]],
+                _ => [c[0], c[1]],
+            };
+            [x.min(y), x.max(y)]
+        };
+        let pairs: SmallVec<[[u32; 2]; 24]> = around_a
+            .iter()
+            .map(|&f| others(self.corners[f as usize]))
+            .collect();
+        let mut coincident: SmallVec<[([u32; 3], u32); 4]> = SmallVec::new();
+        for i in first_moved..around_a.len() {
+            if pairs[..i].contains(&pairs[i]) {
+                let mut key = self.corners[around_a[i] as usize];
+                key.sort_unstable();
+                coincident.push((key, around_a[i]));
+            }
+        }
+        coincident.sort_unstable();
+        for &(_, f) in &coincident {
+            self.alive_face[f as usize] = false;
+            removed.push((f, Vanish::Coincident));
+            for v in self.corners[f as usize] {
+                if v != a {
+                    self.unlink(v, f);
                 }
             }
         }
-        self.keys = keys;
         around_a.retain(|f| self.alive_face[*f as usize]);
         // A loose edge only where no surviving triangle still carries the edge: almost always one does,
         // and redundant entries would be re-sorted and re-searched at every later merge.
@@ -372,7 +381,12 @@ impl Collapser {
                     }
                 });
                 let after = (moved[1] - moved[0]).cross(moved[2] - moved[0]);
-                if before.dot(after) < FOLD_COS * before.length() * after.length() {
+                // cos(before, after) < FOLD_COS, without the square roots.
+                let dot = before.dot(after);
+                if dot < 0.0
+                    || dot * dot
+                        < FOLD_COS * FOLD_COS * before.length_squared() * after.length_squared()
+                {
                     return true;
                 }
             }

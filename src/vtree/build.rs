@@ -853,7 +853,7 @@ impl Builder<'_> {
             self.stats.phases.merging += clock.elapsed().as_secs_f64();
             let clock = Instant::now();
             // 5. Drop the stale pairs, price the survivors' pairs anew (each pair once).
-            cands.retain(|e| {
+            par_retain(&mut cands, |e| {
                 changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
             });
             // A pair of two survivors is priced by the smaller slot only.
@@ -1153,6 +1153,34 @@ pub fn build(
     stats.depth = tree.depth();
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((tree, stats))
+}
+
+/// `Vec::retain` on every thread: each chunk keeps its entries in place, then the chunks close up.
+/// The order is a sequential `retain`'s.
+fn par_retain<T: Copy + Send + Sync>(v: &mut Vec<T>, keep: impl Fn(&T) -> bool + Sync) {
+    let chunk = v
+        .len()
+        .div_ceil(rayon::current_num_threads())
+        .max(PRICE_CHUNK);
+    let kept: Vec<usize> = v
+        .par_chunks_mut(chunk)
+        .map(|part| {
+            let mut n = 0;
+            for i in 0..part.len() {
+                if keep(&part[i]) {
+                    part[n] = part[i];
+                    n += 1;
+                }
+            }
+            n
+        })
+        .collect();
+    let mut end = 0;
+    for (k, &n) in kept.iter().enumerate() {
+        v.copy_within(k * chunk..k * chunk + n, end);
+        end += n;
+    }
+    v.truncate(end);
 }
 
 /// Compressed vertex adjacency, for the 2-ring test of close pairs.
