@@ -241,21 +241,22 @@ impl Collapser {
                 }
             }
         }
-        for &e in self.extras[slot as usize]
+        out.extend(self.extra_neighbors(slot));
+        dedup_neighbors(out);
+    }
+
+    /// The partners of `slot` by loose edges and proximity pairs (possibly also joined by a
+    /// triangle, possibly repeated).
+    pub fn extra_neighbors(&self, slot: u32) -> impl Iterator<Item = Neighbor> + '_ {
+        self.extras[slot as usize]
             .as_deref()
             .map_or(&[][..], |v| &v[..])
-        {
-            let v = self.root(e & SLOT_MASK);
-            if v != slot {
-                out.push(Neighbor {
-                    slot: v,
-                    edge: e & LOOSE_EDGE != 0,
-                });
-            }
-        }
-        // Edges sort before non-edges of the same slot, so dedup keeps the edge.
-        out.sort_unstable_by_key(|n| (n.slot, !n.edge));
-        out.dedup_by_key(|n| n.slot);
+            .iter()
+            .map(|&e| Neighbor {
+                slot: self.root(e & SLOT_MASK),
+                edge: e & LOOSE_EDGE != 0,
+            })
+            .filter(move |n| n.slot != slot)
     }
 
     /// `vunify`: merges live slot `b` into live slot `a`, which moves to `position`. Triangles that
@@ -393,6 +394,13 @@ impl Collapser {
         }
         false
     }
+}
+
+/// Sorts `list` by slot and keeps each slot once, as an edge if any entry is.
+pub fn dedup_neighbors(list: &mut Vec<Neighbor>) {
+    // Edges sort before non-edges of the same slot, so dedup keeps the edge.
+    list.sort_unstable_by_key(|n| (n.slot, !n.edge));
+    list.dedup_by_key(|n| n.slot);
 }
 
 #[cfg(test)]

@@ -116,7 +116,9 @@ impl PairEnd {
 
     /// The quadric about `origin`.
     pub fn quadric_about(&self, origin: DVec3) -> Quadric {
-        self.quadric.get().shifted(origin - self.position.as_dvec3())
+        self.quadric
+            .get()
+            .shifted(origin - self.position.as_dvec3())
     }
 
     /// The end that `a` and `b` merge into, at `position`: the quadrics' sum, the features kept.

@@ -17,13 +17,13 @@
 
 use super::{NONE, Node, PartInfo, VertexTree};
 use crate::mesh::Mesh;
+use crate::simplify::Metric;
 use crate::simplify::bounds::{NormalCone, Sphere};
-use crate::simplify::collapse::{Collapser, Neighbor};
+use crate::simplify::collapse::{Collapser, Neighbor, dedup_neighbors};
 use crate::simplify::features;
-use crate::simplify::geometry::closest_point_on_triangle;
+use crate::simplify::geometry::{LANES, nearest_squared};
 use crate::simplify::metric::{Candidate, HybridWeights, PairEnd, Pricing};
 use crate::simplify::pairs::close_pairs;
-use crate::simplify::Metric;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::cmp::Ordering;
@@ -247,26 +247,10 @@ fn cone_of(normals: impl Iterator<Item = Vec3> + Clone) -> NormalCone {
 /// A triangle around a merged vertex, as [`finish_node`] reads it.
 struct FanTriangle {
     corners: [Vec3; 3],
+    /// The slots at the corners.
+    slots: [u32; 3],
     /// Unit normal; zero for a degenerate triangle.
     normal: Vec3,
-}
-
-/// Distance from `p` to the nearest triangle of `fan`; `None` when there are none. A triangle whose
-/// plane is already farther than the best so far cannot be nearer: its closest point is skipped.
-fn distance_to_fan(p: Vec3, fan: &[FanTriangle]) -> Option<f32> {
-    if fan.is_empty() {
-        return None;
-    }
-    let mut best = f32::INFINITY;
-    for t in fan {
-        let [a, b, d] = t.corners;
-        let plane = (p - a).dot(t.normal);
-        if plane * plane >= best {
-            continue;
-        }
-        best = best.min(closest_point_on_triangle(p, a, b, d).distance_squared(p));
-    }
-    Some(best.sqrt())
 }
 
 fn sphere_of(n: &Node) -> Sphere {
@@ -290,6 +274,9 @@ struct Merged {
     blend: [f32; 2],
     /// Both slots' error samples, from before the merge.
     pending: Pending,
+    /// The surviving slot and what pricing reads of it now.
+    slot: u32,
+    end: PairEnd,
 }
 
 /// The triangles around a live slot, read once: corners and unit normal (zero when degenerate), for
@@ -300,19 +287,23 @@ fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle>) {
         let [a, b, d] = f.map(|v| c.positions[v as usize]);
         FanTriangle {
             corners: [a, b, d],
+            slots: f,
             normal: (b - a).cross(d - a).normalize_or_zero(),
         }
     }));
 }
 
-/// Merges handed to [`finish_node`] in one go, with the triangles around each survivor as they were
-/// right after its merge.
+/// Merges handed to [`finish_node`] in one go, with the triangles and other partners around each
+/// survivor as they were right after its merge.
 #[derive(Default)]
 struct FinishBatch {
     nodes: Vec<(Node, Merged)>,
-    /// The fans of `nodes`, one after another; `ends[i]` closes the i-th.
+    /// The fans of `nodes`, one after another; `fan_ends[i]` closes the i-th.
     fans: Vec<FanTriangle>,
-    ends: Vec<u32>,
+    fan_ends: Vec<u32>,
+    /// The survivors' partners by loose edges and proximity pairs, likewise.
+    extras: Vec<Neighbor>,
+    extra_ends: Vec<u32>,
 }
 
 /// Merges per [`FinishBatch`] handed to the finishing thread (fewer when their fans reach
@@ -322,61 +313,117 @@ const FINISH_BATCH: usize = 256;
 const FINISH_FANS: usize = 2048;
 const FINISH_HERE: usize = 32;
 
-/// A batch and the places its finished nodes and samples go.
-type Handover<'a> = (FinishBatch, &'a mut [Node], &'a mut [Samples]);
-
-/// The part of a pass's new nodes and kept samples not yet handed to a batch.
-struct Output<'a> {
-    nodes: &'a mut [Node],
-    kept: &'a mut [Samples],
+/// What finishing a pass's nodes reads: none of it changes while the pass merges.
+struct PassView<'a> {
+    /// The nodes of earlier passes.
+    done: &'a [Node],
+    leaves: &'a [Vec3],
+    /// Every slot's pricing data as the pass began (merges put theirs in [`Merged::end`]).
+    ends: &'a [PairEnd],
+    /// `picked[s] == pass`: slot s is an end of a pair chosen in the pass.
+    picked: &'a [u32],
+    pass: u32,
+    pricing: Pricing,
 }
 
-impl<'a> Output<'a> {
+/// Where a batch's results go: its nodes, their kept samples, and whether all their pairs were
+/// priced.
+struct Places<'a> {
+    nodes: &'a mut [Node],
+    kept: &'a mut [Samples],
+    /// Every pair of the survivor priced: none waits for the pass to end.
+    priced: &'a mut [bool],
+}
+
+/// The part of a pass's outputs not yet handed to a batch.
+impl<'a> Places<'a> {
     /// The next `n` places.
-    fn take(&mut self, n: usize) -> (&'a mut [Node], &'a mut [Samples]) {
+    fn take(&mut self, n: usize) -> Places<'a> {
         let (nodes, rest) = std::mem::take(&mut self.nodes).split_at_mut(n);
         self.nodes = rest;
         let (kept, rest) = std::mem::take(&mut self.kept).split_at_mut(n);
         self.kept = rest;
-        (nodes, kept)
+        let (priced, rest) = std::mem::take(&mut self.priced).split_at_mut(n);
+        self.priced = rest;
+        Places {
+            nodes,
+            kept,
+            priced,
+        }
     }
 }
 
 impl FinishBatch {
-    fn push(&mut self, c: &Collapser, node: Node, slot: u32, blend: [f32; 2], pending: Pending) {
-        fan_of(c, slot, &mut self.fans);
-        self.ends.push(self.fans.len() as u32);
-        self.nodes.push((node, Merged { blend, pending }));
+    fn push(&mut self, c: &Collapser, node: Node, merged: Merged) {
+        fan_of(c, merged.slot, &mut self.fans);
+        self.fan_ends.push(self.fans.len() as u32);
+        self.extras.extend(c.extra_neighbors(merged.slot));
+        self.extra_ends.push(self.extras.len() as u32);
+        self.nodes.push((node, merged));
     }
 
-    /// Completes the nodes into `out` and their kept samples into `kept` (both as long as the
-    /// batch); returns the emptied batch for reuse.
-    fn finish(
-        mut self,
-        done: &[Node],
-        leaves: &[Vec3],
-        out: &mut [Node],
-        kept: &mut [Samples],
-    ) -> FinishBatch {
-        let mut start = 0;
-        for (i, (&(mut node, merged), &end)) in self.nodes.iter().zip(&self.ends).enumerate() {
-            // Children and samples are scattered: start loading the next ones'.
+    /// Completes the nodes into `out`, and prices each survivor's pairs with partners in no pair
+    /// of the pass into `entries` (see `run_passes`, step 5), marking in `out.priced` the survivors
+    /// with no others. Returns the emptied batch for reuse.
+    fn finish(mut self, view: &PassView, out: Places, entries: &mut Vec<Entry>) -> FinishBatch {
+        let mut around = Vec::new();
+        let (mut fan_start, mut extra_start) = (0, 0);
+        for (i, &(mut node, merged)) in self.nodes.iter().enumerate() {
+            // Children, samples and partners are scattered: start loading the next ones'.
             if let Some((next, m)) = self.nodes.get(i + PREFETCH_AHEAD) {
                 for c in next.children {
-                    crate::prefetch(&done[c as usize]);
+                    crate::prefetch(&view.done[c as usize]);
                 }
                 for q in m.pending.into_iter().filter(|&q| q != NONE) {
-                    crate::prefetch(&leaves[q as usize]);
+                    crate::prefetch(&view.leaves[q as usize]);
                 }
             }
-            let fan = &self.fans[start as usize..end as usize];
-            kept[i] = finish_node(&mut node, done, &merged, fan, leaves);
-            out[i] = node;
-            start = end;
+            if let Some(&end) = self.fan_ends.get(i + PREFETCH_AHEAD / 2) {
+                let start = self.fan_ends[i + PREFETCH_AHEAD / 2 - 1];
+                for t in &self.fans[start as usize..end as usize] {
+                    for v in t.slots {
+                        crate::prefetch(&view.ends[v as usize]);
+                        crate::prefetch(&view.picked[v as usize]);
+                    }
+                }
+            }
+            let (fan_end, extra_end) = (self.fan_ends[i], self.extra_ends[i]);
+            let fan = &self.fans[fan_start as usize..fan_end as usize];
+            out.kept[i] = finish_node(&mut node, view.done, &merged, fan, view.leaves);
+            out.nodes[i] = node;
+
+            around.clear();
+            around.extend(
+                fan.iter()
+                    .flat_map(|t| t.slots)
+                    .map(|slot| Neighbor { slot, edge: true }),
+            );
+            around.retain(|n| n.slot != merged.slot);
+            around.extend_from_slice(&self.extras[extra_start as usize..extra_end as usize]);
+            dedup_neighbors(&mut around);
+            let mut all = true;
+            for n in &around {
+                if view.picked[n.slot as usize] == view.pass {
+                    all = false;
+                    continue;
+                }
+                let cand = view
+                    .pricing
+                    .price(&merged.end, &view.ends[n.slot as usize], n.edge);
+                entries.push(Entry {
+                    cost: key(cand.cost),
+                    a: merged.slot,
+                    b: n.slot | if n.edge { 0 } else { NO_EDGE },
+                });
+            }
+            out.priced[i] = all;
+            (fan_start, extra_start) = (fan_end, extra_end);
         }
         self.nodes.clear();
         self.fans.clear();
-        self.ends.clear();
+        self.fan_ends.clear();
+        self.extras.clear();
+        self.extra_ends.clear();
         self
     }
 }
@@ -390,7 +437,9 @@ fn finish_node(
     fan: &[FanTriangle],
     leaves: &[Vec3],
 ) -> Samples {
-    let Merged { blend, ref pending } = *merged;
+    let Merged {
+        blend, ref pending, ..
+    } = *merged;
     let (ns, nt) = (
         &done[node.children[0] as usize],
         &done[node.children[1] as usize],
@@ -417,12 +466,32 @@ fn finish_node(
     // input vertices per node, the farthest so far, to the triangles now around the merged vertex
     // (the children's samples compete for the places). The RMS plane distance alone underestimates
     // the Hausdorff distance 2–5× (BENCHMARKS.md).
+    // Lanes: the pending samples, then the two children's vertices (the rest repeat the node's).
     let here = node.position();
-    let away = |p: Vec3| distance_to_fan(p, fan).unwrap_or_else(|| p.distance(here));
+    const _: () = assert!(2 * SAMPLES + 2 <= LANES);
+    let points: [Vec3; LANES] = std::array::from_fn(|i| match i.checked_sub(pending.len()) {
+        None if pending[i] != NONE => leaves[pending[i] as usize],
+        Some(0) => ns.position(),
+        Some(1) => nt.position(),
+        _ => here,
+    });
+    let distance: [f32; LANES] = if fan.is_empty() {
+        points.map(|p| p.distance(here))
+    } else {
+        let mut best = [f32::INFINITY; LANES];
+        nearest_squared(
+            &points.map(|p| p.x),
+            &points.map(|p| p.y),
+            &points.map(|p| p.z),
+            fan.iter().map(|t| t.corners),
+            &mut best,
+        );
+        best.map(f32::sqrt)
+    };
     let mut scored = [(f32::NEG_INFINITY, NONE); 2 * SAMPLES];
-    for (score, &q) in scored.iter_mut().zip(pending) {
+    for (i, (score, &q)) in scored.iter_mut().zip(pending).enumerate() {
         if q != NONE {
-            *score = (away(leaves[q as usize]), q);
+            *score = (distance[i], q);
         }
     }
     scored.sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
@@ -430,8 +499,8 @@ fn finish_node(
     // Each child's own vertex, on top of the child's error: its surface was that close to the
     // input, and its vertex's distance to the new fan is where a merge usually strays most. Summed
     // along a chain this grows like a geometric series, a small factor over the true deviation.
-    for child in [ns, nt] {
-        node.error = node.error.max(child.error + away(child.position()));
+    for (k, child) in [ns, nt].into_iter().enumerate() {
+        node.error = node.error.max(child.error + distance[pending.len() + k]);
     }
     let mut kept = [NONE; SAMPLES];
     for (k, &(_, q)) in kept.iter_mut().zip(&scored) {
@@ -475,13 +544,17 @@ struct Builder<'m> {
 }
 
 impl Builder<'_> {
-    fn price(&self, a: u32, b: u32, edge: bool) -> Candidate {
-        let pricing = Pricing {
+    fn pricing(&self) -> Pricing {
+        Pricing {
             metric: self.metric,
             hybrid: self.hybrid,
             mean_edge_length: self.mean_edge_length,
-        };
-        pricing.price(&self.ends[a as usize], &self.ends[b as usize], edge)
+        }
+    }
+
+    fn price(&self, a: u32, b: u32, edge: bool) -> Candidate {
+        self.pricing()
+            .price(&self.ends[a as usize], &self.ends[b as usize], edge)
     }
 
     fn merges(&self) -> u32 {
@@ -493,10 +566,13 @@ impl Builder<'_> {
         let pending = self.pending(a, b);
         let mut nodes = std::mem::take(&mut self.nodes);
         let u = nodes.len() as u32;
-        let (survivor, blend, mut node) = self.merge_topology(a, b, cand, &nodes, u);
+        let ends = std::mem::take(&mut self.ends);
+        let (mut node, merged) = self.merge_topology(a, b, cand, &nodes, u, &ends, pending);
+        self.ends = ends;
+        let survivor = merged.slot;
+        self.ends[survivor as usize] = merged.end;
         let mut fan = Vec::new();
         fan_of(&self.collapser, survivor, &mut fan);
-        let merged = Merged { blend, pending };
         self.samples[survivor as usize] =
             finish_node(&mut node, &nodes, &merged, &fan, &self.mesh.positions);
         for c in node.children {
@@ -510,12 +586,12 @@ impl Builder<'_> {
     /// Asks for what merging `a` and `b` will read, in stages a few merges ahead (see
     /// [`Collapser::prefetch_pair`]): the working mesh around them, and their quadrics, weights,
     /// masses, samples and current nodes (`done`). Only a hint.
-    fn prefetch_merge(&self, a: u32, b: u32, stage: u32, done: &[Node]) {
+    fn prefetch_merge(&self, a: u32, b: u32, stage: u32, done: &[Node], ends: &[PairEnd]) {
         self.collapser.prefetch_pair(a, b, stage);
         for s in [a as usize, b as usize] {
             match stage {
                 0 => {
-                    crate::prefetch(&self.ends[s]);
+                    crate::prefetch(&ends[s]);
                     crate::prefetch(&self.node_of[s]);
                     crate::prefetch(&self.samples[s]);
                     crate::prefetch(&self.mass[s]);
@@ -539,9 +615,11 @@ impl Builder<'_> {
     }
 
     /// The sequential half of a merge: the working mesh, position and error, the vanishing
-    /// triangles. Returns the surviving slot, the children's shares of the attribute blend and the new
-    /// node `u`, whose colour, normal, sphere, cone and error [`finish_node`] completes; the caller
-    /// links its children (`nodes`, which it reads, holds them) to it and stores it.
+    /// triangles. Returns the new node `u`, whose colour, normal, sphere, cone and error
+    /// [`finish_node`] completes from the returned [`Merged`] (`pending`: both slots' samples);
+    /// the caller links its children (`nodes`, which it reads, holds them) to it and stores it, and
+    /// stores the survivor's new pricing data, [`Merged::end`], in place of `ends`'.
+    #[allow(clippy::too_many_arguments)] // the merge, and the parts of the state it reads only
     fn merge_topology(
         &mut self,
         a: u32,
@@ -549,7 +627,9 @@ impl Builder<'_> {
         cand: &Candidate,
         nodes: &[Node],
         u: u32,
-    ) -> (u32, [f32; 2], Node) {
+        ends: &[PairEnd],
+        pending: Pending,
+    ) -> (Node, Merged) {
         // Keep the slot with more triangles: fewer to rewrite.
         let (a, b) = if self.collapser.face_count(b) > self.collapser.face_count(a) {
             (b, a)
@@ -560,7 +640,7 @@ impl Builder<'_> {
         self.collapser.unify(a, b, cand.position, &mut self.removed);
         let (ai, bi) = (a as usize, b as usize);
         let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
-        self.ends[ai] = PairEnd::merged(&self.ends[ai], &self.ends[bi], cand.position);
+        let end = PairEnd::merged(&ends[ai], &ends[bi], cand.position);
         let (ms, mt) = (self.mass[ai], self.mass[bi]);
         self.mass[ai] = ms + mt;
         let blend = if ms + mt > 0.0 {
@@ -581,7 +661,13 @@ impl Builder<'_> {
         self.node_of[ai] = u;
         self.vanished.extend(self.removed.iter().map(|&(f, _)| f));
         self.vanish_offsets.push(self.vanished.len() as u32);
-        (a, blend, node)
+        let merged = Merged {
+            blend,
+            pending,
+            slot: a,
+            end,
+        };
+        (node, merged)
     }
 
     /// No candidate is left but several isolated vertices are: pair each with its nearest others within
@@ -692,6 +778,7 @@ impl Builder<'_> {
         self.stats.phases.pricing += clock.elapsed().as_secs_f64();
         let mut chosen: Vec<usize> = Vec::new();
         let mut survivors: Vec<u32> = Vec::new();
+        let mut new_ends: Vec<PairEnd> = Vec::new();
         while self.collapser.live_count() > 1 {
             if cands.is_empty() {
                 let pairs = self.widen(radius, per_vertex);
@@ -708,7 +795,8 @@ impl Builder<'_> {
             let goal = ((self.collapser.live_count() as f64 * PASS_SHARE).ceil() as usize).max(1);
             // Only the cheapest few goals' worth can be reached in a pass: partition, then sort just those.
             let window = (goal * PASS_WINDOW).min(cands.len());
-            let order = |e: &Entry| ((e.cost as u64) << 32) | e.a as u64;
+            // A total order: where each entry stands in the list does not matter.
+            let order = |e: &Entry| (((e.cost as u64) << 32) | e.a as u64, e.b);
             if window < cands.len() {
                 cands.select_nth_unstable_by_key(window, order);
             }
@@ -764,38 +852,59 @@ impl Builder<'_> {
             // merge copies out while they are in cache. The merges are sequential and memory-bound, so
             // this work would otherwise wait for them; when the finisher falls behind, the merging
             // thread finishes a batch itself.
+            //
+            // 5, alongside. A survivor's pairs with partners in no pair of the pass: such a pair's
+            // price can no longer change in the pass (the survivor has merged, the partner will not,
+            // and whether a triangle joins them changes only when one of them merges), so it is
+            // priced with the node. The pairs with partners in the pass wait for it to end.
             let mut nodes = std::mem::take(&mut self.nodes);
             let first_new = nodes.len();
             // Room for every chosen merge; what flip tests defer is cut off below.
             nodes.resize(first_new + chosen.len(), bytemuck::Zeroable::zeroed());
             let mut kept = vec![[NONE; SAMPLES]; chosen.len()];
+            let mut priced_early = vec![false; chosen.len()];
             let (done, new) = nodes.split_at_mut(first_new);
-            let (done, leaves) = (&*done, &self.mesh.positions[..]);
+            // Read-only while the pass merges; each merge's new data waits in `new_ends`.
+            let ends = std::mem::take(&mut self.ends);
+            let view = PassView {
+                done,
+                leaves: &self.mesh.positions,
+                ends: &ends,
+                picked: &picked,
+                pass,
+                pricing: self.pricing(),
+            };
+            let view = &view;
             survivors.clear();
-            std::thread::scope(|scope| {
+            new_ends.clear();
+            let mut early = std::thread::scope(|scope| {
                 let threaded = chosen.len() >= 4 * FINISH_BATCH;
                 let batch_len = if threaded { FINISH_BATCH } else { FINISH_HERE };
                 // Bounded: a full queue means the finisher is behind.
-                let (tx, rx) = std::sync::mpsc::sync_channel::<Handover>(2);
+                let (tx, rx) = std::sync::mpsc::sync_channel::<(FinishBatch, Places)>(2);
                 let finisher = threaded.then(|| {
                     scope.spawn(move || {
-                        for (batch, nodes, kept) in rx {
-                            batch.finish(done, leaves, nodes, kept);
+                        let mut entries = Vec::new();
+                        for (batch, places) in rx {
+                            batch.finish(view, places, &mut entries);
                         }
+                        entries
                     })
                 });
-                // The parts of the pass's output not handed out yet.
-                let mut out = Output {
+                // The places of the pass's outputs not handed out yet.
+                let mut out = Places {
                     nodes: new,
                     kept: &mut kept,
+                    priced: &mut priced_early,
                 };
+                let mut entries = Vec::new();
                 let mut batch = FinishBatch::default();
                 for (i, (&index, &cand)) in chosen.iter().zip(&priced).enumerate() {
                     // The merges are scattered over the mesh: start loading the next ones' data.
                     for stage in 0..4 {
                         if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
                             let e = cands[next];
-                            self.prefetch_merge(e.a, e.b & SLOT, stage, done);
+                            self.prefetch_merge(e.a, e.b & SLOT, stage, view.done, view.ends);
                         }
                     }
                     let e = &mut cands[index];
@@ -811,35 +920,41 @@ impl Builder<'_> {
                     }
                     let pending = self.pending(a, b);
                     let u = (first_new + survivors.len()) as u32;
-                    let (survivor, blend, node) = self.merge_topology(a, b, &cand, done, u);
+                    let (node, merged) =
+                        self.merge_topology(a, b, &cand, view.done, u, view.ends, pending);
                     changed[a as usize] = pass;
                     changed[b as usize] = pass;
-                    survivors.push(survivor);
-                    batch.push(&self.collapser, node, survivor, blend, pending);
+                    survivors.push(merged.slot);
+                    new_ends.push(merged.end);
+                    batch.push(&self.collapser, node, merged);
                     if batch.nodes.len() == batch_len || batch.fans.len() >= FINISH_FANS {
-                        let (nodes, kept) = out.take(batch.nodes.len());
+                        let places = out.take(batch.nodes.len());
                         let full = std::mem::take(&mut batch);
                         let back = match &finisher {
-                            Some(_) => tx.try_send((full, nodes, kept)).err().map(|e| match e {
+                            Some(_) => tx.try_send((full, places)).err().map(|e| match e {
                                 // Behind (or panicked, which `join` below reports): finish here.
                                 TrySendError::Full(h) | TrySendError::Disconnected(h) => h,
                             }),
-                            None => Some((full, nodes, kept)),
+                            None => Some((full, places)),
                         };
-                        if let Some((full, nodes, kept)) = back {
-                            batch = full.finish(done, leaves, nodes, kept);
+                        if let Some((full, places)) = back {
+                            batch = full.finish(view, places, &mut entries);
                         }
                     }
                 }
-                let (nodes, kept) = out.take(batch.nodes.len());
-                batch.finish(done, leaves, nodes, kept);
+                let places = out.take(batch.nodes.len());
+                batch.finish(view, places, &mut entries);
                 drop(tx);
                 if let Some(finisher) = finisher {
-                    finisher
-                        .join()
-                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                    entries.extend(
+                        finisher
+                            .join()
+                            .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+                    );
                 }
+                entries
             });
+            self.ends = ends;
             nodes.truncate(first_new + survivors.len());
             self.nodes = nodes;
             for (k, (&slot, kept)) in survivors.iter().zip(kept).enumerate() {
@@ -848,17 +963,25 @@ impl Builder<'_> {
                     self.nodes[c as usize].parent = u;
                 }
                 self.samples[slot as usize] = kept;
+                self.ends[slot as usize] = new_ends[k];
             }
 
             self.stats.phases.merging += clock.elapsed().as_secs_f64();
             let clock = Instant::now();
-            // 5. Drop the stale pairs, price the survivors' pairs anew (each pair once).
+            // 5. Drop the stale pairs, price the other survivors' pairs anew (each pair once).
             par_retain(&mut cands, |e| {
                 changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
             });
-            // A pair of two survivors is priced by the smaller slot only.
+            self.stats.pricings += early.len() as u64;
+            cands.append(&mut early);
+            let mut k = 0;
+            survivors.retain(|_| {
+                k += 1;
+                !priced_early[k - 1]
+            });
+            // The pairs with partners in a pair of the pass; of two survivors, the smaller slot's.
             let fresh = self.price_around(&survivors, |s, other| {
-                !(changed[other as usize] == pass && other < s)
+                picked[other as usize] == pass && !(changed[other as usize] == pass && other < s)
             });
             cands.extend(fresh);
             self.stats.phases.repricing += clock.elapsed().as_secs_f64();
