@@ -25,17 +25,6 @@ pub(crate) fn prefetch<T>(x: &T) {
     prefetch_address(x as *const T as usize);
 }
 
-/// [`prefetch`] of every cache line `x` spans (a quadric is 88 bytes, a tree node 84: two lines
-/// each, often three).
-#[inline(always)]
-pub(crate) fn prefetch_lines<T>(x: &T) {
-    let start = (x as *const T as usize) & !63;
-    let end = x as *const T as usize + std::mem::size_of::<T>();
-    for line in (start..end).step_by(64) {
-        prefetch_address(line);
-    }
-}
-
 #[inline(always)]
 fn prefetch_address(address: usize) {
     #[cfg(target_arch = "x86_64")]

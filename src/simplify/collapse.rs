@@ -228,7 +228,8 @@ impl Collapser {
         self.faces[slot as usize].len()
     }
 
-    /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once, in slot order.
+    /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once
+    /// ([`dedup_neighbors`]: the order carries no meaning).
     pub fn neighbors(&self, slot: u32, out: &mut Vec<Neighbor>) {
         out.clear();
         for (_, c) in self.faces_of(slot) {
@@ -396,11 +397,28 @@ impl Collapser {
     }
 }
 
-/// Sorts `list` by slot and keeps each slot once, as an edge if any entry is.
+/// Keeps each slot of `list` once, as an edge if any of its entries is one. A vertex's partners
+/// (each met twice around its fan) are few: a scan of those kept, in the order first met, is
+/// cheaper than sorting them; long lists are sorted by slot.
 pub fn dedup_neighbors(list: &mut Vec<Neighbor>) {
-    // Edges sort before non-edges of the same slot, so dedup keeps the edge.
-    list.sort_unstable_by_key(|n| (n.slot, !n.edge));
-    list.dedup_by_key(|n| n.slot);
+    if list.len() > 48 {
+        // Edges sort before non-edges of the same slot, so dedup keeps the edge.
+        list.sort_unstable_by_key(|n| (n.slot, !n.edge));
+        list.dedup_by_key(|n| n.slot);
+        return;
+    }
+    let mut kept = 0;
+    for i in 0..list.len() {
+        let n = list[i];
+        match list[..kept].iter_mut().find(|k| k.slot == n.slot) {
+            Some(k) => k.edge |= n.edge,
+            None => {
+                list[kept] = n;
+                kept += 1;
+            }
+        }
+    }
+    list.truncate(kept);
 }
 
 #[cfg(test)]
@@ -455,6 +473,7 @@ mod tests {
         assert_eq!(left, vec![0, 4]);
         let mut n = Vec::new();
         c.neighbors(2, &mut n);
+        n.sort_unstable_by_key(|n| n.slot);
         assert_eq!(
             n,
             vec![
@@ -493,6 +512,7 @@ mod tests {
         c.add_proximity_pair(2, 3);
         let mut n = Vec::new();
         c.neighbors(2, &mut n);
+        n.sort_unstable_by_key(|n| n.slot);
         assert_eq!(
             n[2],
             Neighbor {
@@ -504,6 +524,7 @@ mod tests {
         c.unify(2, 3, Vec3::X * 1.05, &mut removed);
         assert!(removed.is_empty());
         c.neighbors(2, &mut n);
+        n.sort_unstable_by_key(|n| n.slot);
         assert_eq!(
             n.iter().map(|n| n.slot).collect::<Vec<_>>(),
             vec![0, 1, 4, 5]
@@ -520,6 +541,7 @@ mod tests {
         assert_eq!(removed, vec![(0, Vanish::Degenerate)]);
         let mut n = Vec::new();
         c.neighbors(0, &mut n);
+        n.sort_unstable_by_key(|n| n.slot);
         assert_eq!(
             n,
             vec![Neighbor {
@@ -528,6 +550,7 @@ mod tests {
             }]
         );
         c.neighbors(2, &mut n);
+        n.sort_unstable_by_key(|n| n.slot);
         assert_eq!(
             n,
             vec![Neighbor {

@@ -28,7 +28,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
-use std::sync::mpsc::TrySendError;
+use std::collections::VecDeque;
+use std::sync::{Condvar, Mutex};
 use std::time::Instant;
 
 /// How merges are ordered.
@@ -249,8 +250,6 @@ struct FanTriangle {
     corners: [Vec3; 3],
     /// The slots at the corners.
     slots: [u32; 3],
-    /// Unit normal; zero for a degenerate triangle.
-    normal: Vec3,
 }
 
 fn sphere_of(n: &Node) -> Sphere {
@@ -274,13 +273,14 @@ struct Merged {
     blend: [f32; 2],
     /// Both slots' error samples, from before the merge.
     pending: Pending,
-    /// The surviving slot and what pricing reads of it now.
+    /// The surviving slot, and the slot merged into it.
     slot: u32,
-    end: PairEnd,
+    gone: u32,
+    position: Vec3,
 }
 
-/// The triangles around a live slot, read once: corners and unit normal (zero when degenerate), for
-/// the cone and for every distance in [`finish_node`]. Appended to `out`.
+/// The triangles around a live slot, read once: corners and their slots, for the cone, every
+/// distance in [`finish_node`] and the survivor's partners. Appended to `out`.
 fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle>) {
     let c = collapser;
     out.extend(c.faces_of(slot).map(|(_, f)| {
@@ -288,7 +288,6 @@ fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle>) {
         FanTriangle {
             corners: [a, b, d],
             slots: f,
-            normal: (b - a).cross(d - a).normalize_or_zero(),
         }
     }));
 }
@@ -318,7 +317,7 @@ struct PassView<'a> {
     /// The nodes of earlier passes.
     done: &'a [Node],
     leaves: &'a [Vec3],
-    /// Every slot's pricing data as the pass began (merges put theirs in [`Merged::end`]).
+    /// Every slot's pricing data as the pass began (the survivors' new data go to [`Places::ends`]).
     ends: &'a [PairEnd],
     /// `picked[s] == pass`: slot s is an end of a pair chosen in the pass.
     picked: &'a [u32],
@@ -331,6 +330,8 @@ struct PassView<'a> {
 struct Places<'a> {
     nodes: &'a mut [Node],
     kept: &'a mut [Samples],
+    /// The survivors' pricing data ([`PairEnd::merged`]).
+    ends: &'a mut [PairEnd],
     /// Every pair of the survivor priced: none waits for the pass to end.
     priced: &'a mut [bool],
 }
@@ -343,13 +344,79 @@ impl<'a> Places<'a> {
         self.nodes = rest;
         let (kept, rest) = std::mem::take(&mut self.kept).split_at_mut(n);
         self.kept = rest;
+        let (ends, rest) = std::mem::take(&mut self.ends).split_at_mut(n);
+        self.ends = rest;
         let (priced, rest) = std::mem::take(&mut self.priced).split_at_mut(n);
         self.priced = rest;
         Places {
             nodes,
             kept,
+            ends,
             priced,
         }
+    }
+}
+
+/// A batch and where its results go.
+type Job<'a> = (FinishBatch, Places<'a>);
+
+/// Batches waiting to be finished, shared by the merging thread and the finisher. The finisher
+/// takes them oldest first; the merging thread takes the oldest back when more than
+/// [`BACKLOG`] wait, and every one left once its merges are done, so that neither thread idles
+/// while the other has work.
+#[derive(Default)]
+struct Backlog<'a> {
+    /// The jobs, and whether more will come.
+    queue: Mutex<(VecDeque<Job<'a>>, bool)>,
+    ready: Condvar,
+}
+
+const BACKLOG: usize = 2;
+
+impl<'a> Backlog<'a> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, (VecDeque<Job<'a>>, bool)> {
+        // A panicking thread holds no job: what it left is consistent.
+        self.queue
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Queues `job`; returns the oldest job when too many wait.
+    fn push(&self, job: Job<'a>) -> Option<Job<'a>> {
+        let mut q = self.lock();
+        q.0.push_back(job);
+        let back = (q.0.len() > BACKLOG).then(|| q.0.pop_front()).flatten();
+        drop(q);
+        self.ready.notify_one();
+        back
+    }
+
+    /// The oldest job, if any.
+    fn take(&self) -> Option<Job<'a>> {
+        self.lock().0.pop_front()
+    }
+
+    /// The oldest job, waiting for one; `None` once closed and empty.
+    fn wait(&self) -> Option<Job<'a>> {
+        let mut q = self.lock();
+        loop {
+            if let Some(job) = q.0.pop_front() {
+                return Some(job);
+            }
+            if q.1 {
+                return None;
+            }
+            q = self
+                .ready
+                .wait(q)
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
+        }
+    }
+
+    /// No more jobs will come.
+    fn close(&self) {
+        self.lock().1 = true;
+        self.ready.notify_all();
     }
 }
 
@@ -377,6 +444,8 @@ impl FinishBatch {
                 for q in m.pending.into_iter().filter(|&q| q != NONE) {
                     crate::prefetch(&view.leaves[q as usize]);
                 }
+                crate::prefetch(&view.ends[m.slot as usize]);
+                crate::prefetch(&view.ends[m.gone as usize]);
             }
             if let Some(&end) = self.fan_ends.get(i + PREFETCH_AHEAD / 2) {
                 let start = self.fan_ends[i + PREFETCH_AHEAD / 2 - 1];
@@ -391,6 +460,12 @@ impl FinishBatch {
             let fan = &self.fans[fan_start as usize..fan_end as usize];
             out.kept[i] = finish_node(&mut node, view.done, &merged, fan, view.leaves);
             out.nodes[i] = node;
+            let end = PairEnd::merged(
+                &view.ends[merged.slot as usize],
+                &view.ends[merged.gone as usize],
+                merged.position,
+            );
+            out.ends[i] = end;
 
             around.clear();
             around.extend(
@@ -409,7 +484,7 @@ impl FinishBatch {
                 }
                 let cand = view
                     .pricing
-                    .price(&merged.end, &view.ends[n.slot as usize], n.edge);
+                    .price(&end, &view.ends[n.slot as usize], n.edge);
                 entries.push(Entry {
                     cost: key(cand.cost),
                     a: merged.slot,
@@ -444,6 +519,8 @@ fn finish_node(
         &done[node.children[0] as usize],
         &done[node.children[1] as usize],
     );
+    // Never below a child's: the runtime's error test relies on errors growing towards the root.
+    node.error = node.error.max(ns.error).max(nt.error);
     let mix =
         |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * blend[0] + Vec3::from_array(y) * blend[1];
     node.color = mix(ns.color, nt.color).to_array();
@@ -459,7 +536,8 @@ fn finish_node(
     ];
     let mut cone = cone_of_node(ns).union(cone_of_node(nt));
     for t in fan {
-        cone = cone.union_normal(t.normal);
+        let [a, b, d] = t.corners;
+        cone = cone.union_normal((b - a).cross(d - a).normalize_or_zero());
     }
     node.cone = [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle];
     // How far the merged surface strays from the input: Hoppe 1997's residuals, measured from a few
@@ -566,11 +644,13 @@ impl Builder<'_> {
         let pending = self.pending(a, b);
         let mut nodes = std::mem::take(&mut self.nodes);
         let u = nodes.len() as u32;
-        let ends = std::mem::take(&mut self.ends);
-        let (mut node, merged) = self.merge_topology(a, b, cand, &nodes, u, &ends, pending);
-        self.ends = ends;
+        let (mut node, merged) = self.merge_topology(a, b, cand, u, pending);
         let survivor = merged.slot;
-        self.ends[survivor as usize] = merged.end;
+        self.ends[survivor as usize] = PairEnd::merged(
+            &self.ends[survivor as usize],
+            &self.ends[merged.gone as usize],
+            merged.position,
+        );
         let mut fan = Vec::new();
         fan_of(&self.collapser, survivor, &mut fan);
         self.samples[survivor as usize] =
@@ -586,22 +666,13 @@ impl Builder<'_> {
     /// Asks for what merging `a` and `b` will read, in stages a few merges ahead (see
     /// [`Collapser::prefetch_pair`]): the working mesh around them, and their quadrics, weights,
     /// masses, samples and current nodes (`done`). Only a hint.
-    fn prefetch_merge(&self, a: u32, b: u32, stage: u32, done: &[Node], ends: &[PairEnd]) {
+    fn prefetch_merge(&self, a: u32, b: u32, stage: u32) {
         self.collapser.prefetch_pair(a, b, stage);
-        for s in [a as usize, b as usize] {
-            match stage {
-                0 => {
-                    crate::prefetch(&ends[s]);
-                    crate::prefetch(&self.node_of[s]);
-                    crate::prefetch(&self.samples[s]);
-                    crate::prefetch(&self.mass[s]);
-                }
-                1 => {
-                    if let Some(node) = done.get(self.node_of[s] as usize) {
-                        crate::prefetch_lines(node);
-                    }
-                }
-                _ => {}
+        if stage == 0 {
+            for s in [a as usize, b as usize] {
+                crate::prefetch(&self.node_of[s]);
+                crate::prefetch(&self.samples[s]);
+                crate::prefetch(&self.mass[s]);
             }
         }
     }
@@ -614,20 +685,16 @@ impl Builder<'_> {
         out
     }
 
-    /// The sequential half of a merge: the working mesh, position and error, the vanishing
-    /// triangles. Returns the new node `u`, whose colour, normal, sphere, cone and error
-    /// [`finish_node`] completes from the returned [`Merged`] (`pending`: both slots' samples);
-    /// the caller links its children (`nodes`, which it reads, holds them) to it and stores it, and
-    /// stores the survivor's new pricing data, [`Merged::end`], in place of `ends`'.
-    #[allow(clippy::too_many_arguments)] // the merge, and the parts of the state it reads only
+    /// The sequential half of a merge: the working mesh, the vanishing triangles. Returns the new
+    /// node `u`, whose colour, normal, sphere, cone and error [`finish_node`] completes from the
+    /// returned [`Merged`] (`pending`: both slots' samples); the caller links its children to it,
+    /// stores it, and stores the survivor's new pricing data ([`PairEnd::merged`]).
     fn merge_topology(
         &mut self,
         a: u32,
         b: u32,
         cand: &Candidate,
-        nodes: &[Node],
         u: u32,
-        ends: &[PairEnd],
         pending: Pending,
     ) -> (Node, Merged) {
         // Keep the slot with more triangles: fewer to rewrite.
@@ -640,7 +707,6 @@ impl Builder<'_> {
         self.collapser.unify(a, b, cand.position, &mut self.removed);
         let (ai, bi) = (a as usize, b as usize);
         let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
-        let end = PairEnd::merged(&ends[ai], &ends[bi], cand.position);
         let (ms, mt) = (self.mass[ai], self.mass[bi]);
         self.mass[ai] = ms + mt;
         let blend = if ms + mt > 0.0 {
@@ -650,7 +716,7 @@ impl Builder<'_> {
         };
         let node = Node {
             position: cand.position.to_array(),
-            error: (cand.error as f32).max(nodes[s].error).max(nodes[t].error),
+            error: cand.error as f32,
             color: [0.0; 3],
             parent: NONE,
             normal: [0.0; 3],
@@ -665,7 +731,8 @@ impl Builder<'_> {
             blend,
             pending,
             slot: a,
-            end,
+            gone: b,
+            position: cand.position,
         };
         (node, merged)
     }
@@ -865,6 +932,7 @@ impl Builder<'_> {
             let mut priced_early = vec![false; chosen.len()];
             let (done, new) = nodes.split_at_mut(first_new);
             // Read-only while the pass merges; each merge's new data waits in `new_ends`.
+            new_ends.resize(chosen.len(), PairEnd::default());
             let ends = std::mem::take(&mut self.ends);
             let view = PassView {
                 done,
@@ -876,16 +944,14 @@ impl Builder<'_> {
             };
             let view = &view;
             survivors.clear();
-            new_ends.clear();
+            let backlog = &Backlog::default();
             let mut early = std::thread::scope(|scope| {
                 let threaded = chosen.len() >= 4 * FINISH_BATCH;
                 let batch_len = if threaded { FINISH_BATCH } else { FINISH_HERE };
-                // Bounded: a full queue means the finisher is behind.
-                let (tx, rx) = std::sync::mpsc::sync_channel::<(FinishBatch, Places)>(2);
                 let finisher = threaded.then(|| {
                     scope.spawn(move || {
                         let mut entries = Vec::new();
-                        for (batch, places) in rx {
+                        while let Some((batch, places)) = backlog.wait() {
                             batch.finish(view, places, &mut entries);
                         }
                         entries
@@ -895,6 +961,7 @@ impl Builder<'_> {
                 let mut out = Places {
                     nodes: new,
                     kept: &mut kept,
+                    ends: &mut new_ends,
                     priced: &mut priced_early,
                 };
                 let mut entries = Vec::new();
@@ -904,7 +971,7 @@ impl Builder<'_> {
                     for stage in 0..4 {
                         if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
                             let e = cands[next];
-                            self.prefetch_merge(e.a, e.b & SLOT, stage, view.done, view.ends);
+                            self.prefetch_merge(e.a, e.b & SLOT, stage);
                         }
                     }
                     let e = &mut cands[index];
@@ -920,22 +987,17 @@ impl Builder<'_> {
                     }
                     let pending = self.pending(a, b);
                     let u = (first_new + survivors.len()) as u32;
-                    let (node, merged) =
-                        self.merge_topology(a, b, &cand, view.done, u, view.ends, pending);
+                    let (node, merged) = self.merge_topology(a, b, &cand, u, pending);
                     changed[a as usize] = pass;
                     changed[b as usize] = pass;
                     survivors.push(merged.slot);
-                    new_ends.push(merged.end);
                     batch.push(&self.collapser, node, merged);
                     if batch.nodes.len() == batch_len || batch.fans.len() >= FINISH_FANS {
                         let places = out.take(batch.nodes.len());
-                        let full = std::mem::take(&mut batch);
+                        let job = (std::mem::take(&mut batch), places);
                         let back = match &finisher {
-                            Some(_) => tx.try_send((full, places)).err().map(|e| match e {
-                                // Behind (or panicked, which `join` below reports): finish here.
-                                TrySendError::Full(h) | TrySendError::Disconnected(h) => h,
-                            }),
-                            None => Some((full, places)),
+                            Some(_) => backlog.push(job),
+                            None => Some(job),
                         };
                         if let Some((full, places)) = back {
                             batch = full.finish(view, places, &mut entries);
@@ -944,7 +1006,11 @@ impl Builder<'_> {
                 }
                 let places = out.take(batch.nodes.len());
                 batch.finish(view, places, &mut entries);
-                drop(tx);
+                // What the finisher has not started yet, finished here alongside it.
+                backlog.close();
+                while let Some((batch, places)) = backlog.take() {
+                    batch.finish(view, places, &mut entries);
+                }
                 if let Some(finisher) = finisher {
                     entries.extend(
                         finisher
