@@ -319,9 +319,8 @@ struct PassView<'a> {
     leaves: &'a [Vec3],
     /// Every slot's pricing data as the pass began (the survivors' new data go to [`Places::ends`]).
     ends: &'a [PairEnd],
-    /// `picked[s] == pass`: slot s is an end of a pair chosen in the pass.
-    picked: &'a [u32],
-    pass: u32,
+    /// The ends of the pairs chosen in the pass.
+    picked: &'a SlotSet,
     pricing: Pricing,
 }
 
@@ -452,7 +451,6 @@ impl FinishBatch {
                 for t in &self.fans[start as usize..end as usize] {
                     for v in t.slots {
                         crate::prefetch(&view.ends[v as usize]);
-                        crate::prefetch(&view.picked[v as usize]);
                     }
                 }
             }
@@ -478,7 +476,7 @@ impl FinishBatch {
             dedup_neighbors(&mut around);
             let mut all = true;
             for n in &around {
-                if view.picked[n.slot as usize] == view.pass {
+                if view.picked.contains(n.slot) {
                     all = false;
                     continue;
                 }
@@ -834,10 +832,10 @@ impl Builder<'_> {
     ) {
         let total = self.mesh.positions.len() - 1;
         let n = self.mesh.positions.len();
-        // `picked[s] == pass`: slot s is an end of a pair chosen in that pass (so no other pair may use
-        // it); `changed[s] == pass`: s merged (or died) in that pass, so its pairs' prices are stale.
-        let mut picked: Vec<u32> = vec![0; n];
-        let mut changed: Vec<u32> = vec![0; n];
+        // Of the pass under way: `picked`, the ends of its chosen pairs (so no other pair may use
+        // them); `changed`, the slots that merged (or died), whose pairs' prices are stale.
+        let mut picked = SlotSet::new(n);
+        let mut changed = SlotSet::new(n);
         let mut last_report = 0;
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
         let clock = Instant::now();
@@ -857,7 +855,8 @@ impl Builder<'_> {
                 continue;
             }
             self.stats.rounds += 1;
-            let pass = self.stats.rounds as u32;
+            picked.clear();
+            changed.clear();
             let clock = Instant::now();
             let goal = ((self.collapser.live_count() as f64 * PASS_SHARE).ceil() as usize).max(1);
             // Only the cheapest few goals' worth can be reached in a pass: partition, then sort just those.
@@ -881,11 +880,11 @@ impl Builder<'_> {
                     break;
                 }
                 let (a, b) = (e.a, e.b & SLOT);
-                if picked[a as usize] == pass || picked[b as usize] == pass {
+                if picked.contains(a) || picked.contains(b) {
                     continue;
                 }
-                picked[a as usize] = pass;
-                picked[b as usize] = pass;
+                picked.insert(a);
+                picked.insert(b);
                 chosen.push(index);
             }
             // 2. Price them in parallel (their quadrics and positions do not change within the pass).
@@ -939,7 +938,6 @@ impl Builder<'_> {
                 leaves: &self.mesh.positions,
                 ends: &ends,
                 picked: &picked,
-                pass,
                 pricing: self.pricing(),
             };
             let view = &view;
@@ -988,8 +986,8 @@ impl Builder<'_> {
                     let pending = self.pending(a, b);
                     let u = (first_new + survivors.len()) as u32;
                     let (node, merged) = self.merge_topology(a, b, &cand, u, pending);
-                    changed[a as usize] = pass;
-                    changed[b as usize] = pass;
+                    changed.insert(a);
+                    changed.insert(b);
                     survivors.push(merged.slot);
                     batch.push(&self.collapser, node, merged);
                     if batch.nodes.len() == batch_len || batch.fans.len() >= FINISH_FANS {
@@ -1036,7 +1034,7 @@ impl Builder<'_> {
             let clock = Instant::now();
             // 5. Drop the stale pairs, price the other survivors' pairs anew (each pair once).
             par_retain(&mut cands, |e| {
-                changed[e.a as usize] != pass && changed[(e.b & SLOT) as usize] != pass
+                !changed.contains(e.a) && !changed.contains(e.b & SLOT)
             });
             self.stats.pricings += early.len() as u64;
             cands.append(&mut early);
@@ -1047,7 +1045,7 @@ impl Builder<'_> {
             });
             // The pairs with partners in a pair of the pass; of two survivors, the smaller slot's.
             let fresh = self.price_around(&survivors, |s, other| {
-                picked[other as usize] == pass && !(changed[other as usize] == pass && other < s)
+                picked.contains(other) && !(changed.contains(other) && other < s)
             });
             cands.extend(fresh);
             self.stats.phases.repricing += clock.elapsed().as_secs_f64();
@@ -1342,6 +1340,24 @@ pub fn build(
     stats.depth = tree.depth();
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((tree, stats))
+}
+
+/// A set of slots, one bit each: the pass's marks stay in cache where a word per slot would not.
+struct SlotSet(Vec<u64>);
+
+impl SlotSet {
+    fn new(n: usize) -> SlotSet {
+        SlotSet(vec![0; n.div_ceil(64)])
+    }
+    fn insert(&mut self, s: u32) {
+        self.0[s as usize / 64] |= 1 << (s % 64);
+    }
+    fn contains(&self, s: u32) -> bool {
+        self.0[s as usize / 64] & (1 << (s % 64)) != 0
+    }
+    fn clear(&mut self) {
+        self.0.fill(0);
+    }
 }
 
 /// `Vec::retain` on every thread: each chunk keeps its entries in place, then the chunks close up.
