@@ -408,13 +408,22 @@ pub fn dedup_neighbors(list: &mut Vec<Neighbor>) {
         return;
     }
     let mut kept = 0;
+    // One bit per slot modulo 64 of those kept: a clear bit means a new slot, no scan needed.
+    let mut seen = 0u64;
     for i in 0..list.len() {
         let n = list[i];
-        match list[..kept].iter_mut().find(|k| k.slot == n.slot) {
+        let bit = 1u64 << (n.slot % 64);
+        let known = if seen & bit != 0 {
+            list[..kept].iter_mut().rev().find(|k| k.slot == n.slot)
+        } else {
+            None
+        };
+        match known {
             Some(k) => k.edge |= n.edge,
             None => {
                 list[kept] = n;
                 kept += 1;
+                seen |= bit;
             }
         }
     }
