@@ -148,13 +148,8 @@ mod tests {
 
     #[test]
     fn nearest_squared_matches_the_closest_point() {
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut random = crate::simplify::test_random(7);
+        let mut rnd = || random() * 2.0 - 1.0;
         for round in 0..500 {
             let mut v = || Vec3::new(rnd(), rnd(), rnd());
             let mut tris: Vec<[Vec3; 3]> = (0..1 + round % 9).map(|_| [v(), v(), v()]).collect();

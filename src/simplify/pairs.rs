@@ -121,13 +121,7 @@ mod tests {
 
     #[test]
     fn matches_brute_force_on_random_points() {
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::simplify::test_random(12345);
         let pts: Vec<(u32, Vec3)> = (0..400)
             .map(|i| (i, Vec3::new(rnd(), rnd(), rnd()) * 3.0 - 1.0))
             .collect();

@@ -66,13 +66,18 @@ impl Quadric {
         Quadric::from_plane(cross / len, p0, 0.5 * len)
     }
 
-    /// `vᵀ Q v`, clamped at zero (rounding can make it slightly negative).
-    pub fn eval(&self, v: DVec3) -> f64 {
-        let av = DVec3::new(
+    /// `A v`.
+    fn times(&self, v: DVec3) -> DVec3 {
+        DVec3::new(
             self.a00 * v.x + self.a01 * v.y + self.a02 * v.z,
             self.a01 * v.x + self.a11 * v.y + self.a12 * v.z,
             self.a02 * v.x + self.a12 * v.y + self.a22 * v.z,
-        );
+        )
+    }
+
+    /// `vᵀ Q v`, clamped at zero (rounding can make it slightly negative).
+    pub fn eval(&self, v: DVec3) -> f64 {
+        let av = self.times(v);
         let b = DVec3::from_array(self.b);
         (v.dot(av) + 2.0 * b.dot(v) + self.c).max(0.0)
     }
@@ -90,11 +95,7 @@ impl Quadric {
     /// The same quadric about the origin moved by `t`: with `u = v − t`,
     /// `Q = uᵀAu + 2 (b + At)ᵀu + Q(t)`.
     pub fn shifted(&self, t: DVec3) -> Quadric {
-        let at = DVec3::new(
-            self.a00 * t.x + self.a01 * t.y + self.a02 * t.z,
-            self.a01 * t.x + self.a11 * t.y + self.a12 * t.z,
-            self.a02 * t.x + self.a12 * t.y + self.a22 * t.z,
-        );
+        let at = self.times(t);
         let b = DVec3::from_array(self.b);
         Quadric {
             b: (b + at).to_array(),
