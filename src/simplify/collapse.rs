@@ -231,19 +231,8 @@ impl Collapser {
     /// Every slot joined to `slot` by a triangle, a loose edge or a proximity pair, once
     /// ([`dedup_neighbors`]: the order carries no meaning).
     pub fn neighbors(&self, slot: u32, out: &mut Vec<Neighbor>) {
-        out.clear();
-        for (_, c) in self.faces_of(slot) {
-            for v in c {
-                if v != slot {
-                    out.push(Neighbor {
-                        slot: v,
-                        edge: true,
-                    });
-                }
-            }
-        }
-        out.extend(self.extra_neighbors(slot));
-        dedup_neighbors(out);
+        let triangles = self.faces_of(slot).map(|(_, c)| c);
+        gather_neighbors(slot, triangles, self.extra_neighbors(slot), out);
     }
 
     /// The partners of `slot` by loose edges and proximity pairs (possibly also joined by a
@@ -395,6 +384,29 @@ impl Collapser {
         }
         false
     }
+}
+
+/// Into `out` (emptied first): the other corners of `triangles` around `slot`, joined to it by edges,
+/// and its `extras`, each slot once ([`dedup_neighbors`]). What [`Collapser::neighbors`] reads from
+/// the working mesh, from copies of it.
+pub fn gather_neighbors(
+    slot: u32,
+    triangles: impl Iterator<Item = [u32; 3]>,
+    extras: impl Iterator<Item = Neighbor>,
+    out: &mut Vec<Neighbor>,
+) {
+    out.clear();
+    out.extend(
+        triangles
+            .flatten()
+            .filter(|&v| v != slot)
+            .map(|v| Neighbor {
+                slot: v,
+                edge: true,
+            }),
+    );
+    out.extend(extras);
+    dedup_neighbors(out);
 }
 
 /// Keeps each slot of `list` once, as an edge if any of its entries is one. A vertex's partners

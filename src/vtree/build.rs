@@ -19,7 +19,7 @@ use super::{NONE, Node, PartInfo, VertexTree};
 use crate::mesh::Mesh;
 use crate::simplify::Metric;
 use crate::simplify::bounds::{NormalCone, Sphere};
-use crate::simplify::collapse::{Collapser, Neighbor, dedup_neighbors};
+use crate::simplify::collapse::{Collapser, Neighbor, gather_neighbors};
 use crate::simplify::features;
 use crate::simplify::geometry::{LANES, nearest_squared};
 use crate::simplify::metric::{Candidate, HybridWeights, PairEnd, Pricing};
@@ -465,15 +465,14 @@ impl FinishBatch {
             );
             out.ends[i] = end;
 
-            around.clear();
-            around.extend(
-                fan.iter()
-                    .flat_map(|t| t.slots)
-                    .map(|slot| Neighbor { slot, edge: true }),
+            gather_neighbors(
+                merged.slot,
+                fan.iter().map(|t| t.slots),
+                self.extras[extra_start as usize..extra_end as usize]
+                    .iter()
+                    .copied(),
+                &mut around,
             );
-            around.retain(|n| n.slot != merged.slot);
-            around.extend_from_slice(&self.extras[extra_start as usize..extra_end as usize]);
-            dedup_neighbors(&mut around);
             let mut all = true;
             for n in &around {
                 if view.picked.contains(n.slot) {
