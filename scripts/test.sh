@@ -26,7 +26,7 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
 fi
 
 # The algorithms (builder, runtime) build with no GPU crate at all.
-cargo check --lib --no-default-features --locked
+cargo check --lib --bins --no-default-features --locked
 cargo check --benches --examples --locked   # must keep compiling; they run with `cargo bench` / `cargo run --example`
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT

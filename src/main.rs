@@ -660,6 +660,7 @@ fn path(args: PathArgs) -> Result<()> {
     Ok(())
 }
 
+#[cfg(feature = "render")]
 fn render(args: RenderArgs) -> Result<()> {
     use vunify::refine::{Hierarchy, Mode, Settings};
     use vunify::render::{ColorBy, DrawOptions, Gpu, job};
@@ -731,6 +732,7 @@ fn render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+#[cfg(feature = "render")]
 fn print_summary(s: &vunify::render::job::Summary, out: &Path) {
     println!("frames     {} on {}", s.frames, s.adapter);
     println!(
@@ -768,7 +770,7 @@ fn print_summary(s: &vunify::render::job::Summary, out: &Path) {
 
 fn view(args: ViewCliArgs) -> Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let model = args.model.unwrap_or_else(|| root.join(DEFAULT_MODEL));
+    let model = args.model.clone().unwrap_or_else(|| root.join(DEFAULT_MODEL));
     if !has_display() {
         println!(
             "vunify: no display (DISPLAY and WAYLAND_DISPLAY are unset); rendering the default camera path \
@@ -781,6 +783,21 @@ fn view(args: ViewCliArgs) -> Result<()> {
         let _ = std::fs::remove_file(&file);
         return result;
     }
+    run_viewer(model, args)
+}
+
+#[cfg(not(feature = "render"))]
+fn render(_: RenderArgs) -> Result<()> {
+    bail!("this vunify was built without the `render` feature: rebuild with default features to render")
+}
+
+#[cfg(not(feature = "viewer"))]
+fn run_viewer(_: PathBuf, _: ViewCliArgs) -> Result<()> {
+    bail!("this vunify was built without the `viewer` feature: rebuild with default features to view")
+}
+
+#[cfg(feature = "viewer")]
+fn run_viewer(model: PathBuf, args: ViewCliArgs) -> Result<()> {
     let script = match (&args.script, args.frames) {
         (Some(file), _) => {
             Some(vunify::app::script::Script::load(file).map_err(anyhow::Error::msg)?)
