@@ -757,6 +757,28 @@ impl Builder<'_> {
     }
 
     /// Every candidate pair of the current mesh, once, priced in parallel.
+    /// `pairs` (`(a, b)` with `a < b`, sorted by `a`), priced in parallel.
+    fn price_pairs(&mut self, pairs: &[(u32, u32)], edge: bool) -> Vec<Entry> {
+        self.stats.pricings += pairs.len() as u64;
+        let this = &*self;
+        pairs
+            .par_chunks(PRICE_RUN)
+            .flat_map_iter(|run| {
+                run.iter().enumerate().map(move |(i, &(a, b))| {
+                    // Sorted by `a`, so the `b` are the scattered ends: load a few ahead.
+                    if let Some(&(_, ahead)) = run.get(i + PREFETCH_AHEAD) {
+                        crate::prefetch(&this.ends[ahead as usize]);
+                    }
+                    Entry {
+                        cost: key(this.price(a, b, edge).cost),
+                        a,
+                        b: b | if edge { 0 } else { NO_EDGE },
+                    }
+                })
+            })
+            .collect()
+    }
+
     fn priced_candidates(&mut self) -> Vec<Entry> {
         let live: Vec<u32> = self.collapser.live_slots().collect();
         self.price_around(&live, |a, other| other > a)
@@ -825,6 +847,7 @@ impl Builder<'_> {
 
     fn run_passes(
         &mut self,
+        mut cands: Vec<Entry>,
         radius: &mut f32,
         per_vertex: usize,
         progress: &mut dyn FnMut(usize, usize),
@@ -837,9 +860,6 @@ impl Builder<'_> {
         let mut changed = SlotSet::new(n);
         let mut last_report = 0;
         // Candidates persist across passes; only the pairs around a pass's merges are re-priced.
-        let clock = Instant::now();
-        let mut cands = self.priced_candidates();
-        self.stats.phases.pricing += clock.elapsed().as_secs_f64();
         let mut chosen: Vec<usize> = Vec::new();
         let mut survivors: Vec<u32> = Vec::new();
         let mut new_ends: Vec<PairEnd> = Vec::new();
@@ -1193,8 +1213,8 @@ pub fn build(
     stats.phases.features = features_secs;
     stats.phases.close_pairs = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    // The edge list was only needed for the 2-ring test; free it before the tree grows.
     let features::Features {
+        edges,
         quadrics,
         vertex_weight,
         mean_edge_length,
@@ -1261,7 +1281,6 @@ pub fn build(
     for &(a, b) in &close {
         collapser.add_proximity_pair(a, b);
     }
-    drop(close);
 
     let ends: Vec<PairEnd> = quadrics
         .par_iter()
@@ -1299,9 +1318,18 @@ pub fn build(
             .collect(),
     };
     builder.stats.phases.leaves = clock.elapsed().as_secs_f64();
+    // Every pair of the mesh, priced once: its edges and its close pairs are exactly the partners of
+    // each slot, listed already.
+    let clock = Instant::now();
+    let initial = builder.price_pairs(&edges, true);
+    drop(edges);
+    let mut initial = initial;
+    initial.extend(builder.price_pairs(&close, false));
+    drop(close);
+    builder.stats.phases.pricing += clock.elapsed().as_secs_f64();
     let mut radius = options.pair_distance.max(1e-3) * diagonal;
     match options.schedule {
-        Schedule::Passes => builder.run_passes(&mut radius, options.max_pairs_per_vertex, progress),
+        Schedule::Passes => builder.run_passes(initial, &mut radius, options.max_pairs_per_vertex, progress),
         Schedule::Greedy => builder.run_greedy(&mut radius, options.max_pairs_per_vertex, progress),
     }
     progress(n - 1, n - 1);
