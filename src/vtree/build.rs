@@ -878,21 +878,31 @@ impl Builder<'_> {
             changed.clear();
             let clock = Instant::now();
             let goal = ((self.collapser.live_count() as f64 * PASS_SHARE).ceil() as usize).max(1);
-            // Only the cheapest few goals' worth can be reached in a pass: partition, then sort just those.
+            // Only the cheapest few goals' worth can be reached in a pass: partition, then sort just
+            // those; and of those the first half first, as most passes stop in it.
             let window = (goal * PASS_WINDOW).min(cands.len());
+            let head = (goal * PASS_WINDOW / 2).min(window);
             // A total order: where each entry stands in the list does not matter.
             let order = |e: &Entry| (((e.cost as u64) << 32) | e.a as u64, e.b);
             if window < cands.len() {
                 cands.select_nth_unstable_by_key(window, order);
             }
-            cands[..window].par_sort_unstable_by_key(order);
+            if head < window {
+                cands[..window].select_nth_unstable_by_key(head, order);
+            }
+            cands[..head].par_sort_unstable_by_key(order);
+            // Within the sorted head when it matters (`goal < window`).
             let bound = cands
                 .get(goal)
                 .map_or(f32::INFINITY, |e| f32::from_bits(e.cost) * PASS_COST_BOUND);
 
             // 1. Choose vertex-disjoint pairs, cheapest first.
             chosen.clear();
-            for (index, e) in cands[..window].iter().enumerate() {
+            for index in 0..window {
+                if index == head {
+                    cands[head..window].par_sort_unstable_by_key(order);
+                }
+                let e = &cands[index];
                 if chosen.len() >= goal
                     || (chosen.len() > goal / 6 && f32::from_bits(e.cost) > bound)
                 {
