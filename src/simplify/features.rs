@@ -45,28 +45,9 @@ fn face_normal(p: &[Vec3], t: [u32; 3]) -> DVec3 {
 /// is below θ is sharp. 180° is flat.
 pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: f32) -> Features {
     let n = positions.len();
-    // Directed half-edges (lo, hi, face, forward?) grouped by edge: placed by their lower vertex (a
-    // counting sort, linear), then each vertex's few sorted by the rest.
-    let mut first = vec![0u32; n + 1];
-    for t in triangles {
-        for k in 0..3 {
-            first[t[k].min(t[(k + 1) % 3]) as usize + 1] += 1;
-        }
-    }
-    for v in 0..n {
-        first[v + 1] += first[v];
-    }
-    let mut half = vec![(0u32, 0u32, 0u32, false); 3 * triangles.len()];
-    for (f, t) in triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (u, v) = (t[k], t[(k + 1) % 3]);
-            let slot = &mut first[u.min(v) as usize];
-            half[*slot as usize] = (u.min(v), u.max(v), f as u32, u < v);
-            *slot += 1;
-        }
-    }
-    drop(first);
-    // Face quadrics summed per vertex (sequential: scattered adds) while the half-edges sort.
+    // Face quadrics summed per vertex (sequential: scattered adds) while the directed half-edges
+    // (lo, hi, face, forward?) are grouped by edge: placed by their lower vertex (a counting sort,
+    // linear), then each vertex's few sorted by the rest.
     let face_quadrics = || {
         let mut quadrics: Vec<Quadric> = vec![Quadric::default(); n];
         for t in triangles {
@@ -78,13 +59,30 @@ pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: 
         }
         quadrics
     };
-    let ((), mut quadrics) = rayon::join(
-        || {
-            half.par_chunk_by_mut(|x, y| x.0 == y.0)
-                .for_each(|group| group.sort_unstable())
-        },
-        face_quadrics,
-    );
+    let half_edges = || {
+        let mut first = vec![0u32; n + 1];
+        for t in triangles {
+            for k in 0..3 {
+                first[t[k].min(t[(k + 1) % 3]) as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            first[v + 1] += first[v];
+        }
+        let mut half = vec![(0u32, 0u32, 0u32, false); 3 * triangles.len()];
+        for (f, t) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (u, v) = (t[k], t[(k + 1) % 3]);
+                let slot = &mut first[u.min(v) as usize];
+                half[*slot as usize] = (u.min(v), u.max(v), f as u32, u < v);
+                *slot += 1;
+            }
+        }
+        half
+    };
+    let (mut half, mut quadrics) = rayon::join(half_edges, face_quadrics);
+    half.par_chunk_by_mut(|x, y| x.0 == y.0)
+        .for_each(|group| group.sort_unstable());
 
     let cos_sharp = (std::f64::consts::PI - (sharp_dihedral_deg as f64).to_radians()).cos();
     let mut edges = Vec::with_capacity(half.len() / 2 + 1);
