@@ -770,7 +770,10 @@ fn print_summary(s: &vunify::render::job::Summary, out: &Path) {
 
 fn view(args: ViewCliArgs) -> Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let model = args.model.clone().unwrap_or_else(|| root.join(DEFAULT_MODEL));
+    let model = args
+        .model
+        .clone()
+        .unwrap_or_else(|| root.join(DEFAULT_MODEL));
     if !has_display() {
         println!(
             "vunify: no display (DISPLAY and WAYLAND_DISPLAY are unset); rendering the default camera path \
@@ -788,12 +791,16 @@ fn view(args: ViewCliArgs) -> Result<()> {
 
 #[cfg(not(feature = "render"))]
 fn render(_: RenderArgs) -> Result<()> {
-    bail!("this vunify was built without the `render` feature: rebuild with default features to render")
+    bail!(
+        "this vunify was built without the `render` feature: rebuild with default features to render"
+    )
 }
 
 #[cfg(not(feature = "viewer"))]
 fn run_viewer(_: PathBuf, _: ViewCliArgs) -> Result<()> {
-    bail!("this vunify was built without the `viewer` feature: rebuild with default features to view")
+    bail!(
+        "this vunify was built without the `viewer` feature: rebuild with default features to view"
+    )
 }
 
 #[cfg(feature = "viewer")]

@@ -1339,7 +1339,9 @@ pub fn build(
     builder.stats.phases.pricing += clock.elapsed().as_secs_f64();
     let mut radius = options.pair_distance.max(1e-3) * diagonal;
     match options.schedule {
-        Schedule::Passes => builder.run_passes(initial, &mut radius, options.max_pairs_per_vertex, progress),
+        Schedule::Passes => {
+            builder.run_passes(initial, &mut radius, options.max_pairs_per_vertex, progress)
+        }
         Schedule::Greedy => builder.run_greedy(&mut radius, options.max_pairs_per_vertex, progress),
     }
     progress(n - 1, n - 1);
