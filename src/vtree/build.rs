@@ -756,7 +756,6 @@ impl Builder<'_> {
         pairs
     }
 
-    /// Every candidate pair of the current mesh, once, priced in parallel.
     /// `pairs` (`(a, b)` with `a < b`, sorted by `a`), priced in parallel.
     fn price_pairs(&mut self, pairs: &[(u32, u32)], edge: bool) -> Vec<Entry> {
         self.stats.pricings += pairs.len() as u64;
@@ -777,11 +776,6 @@ impl Builder<'_> {
                 })
             })
             .collect()
-    }
-
-    fn priced_candidates(&mut self) -> Vec<Entry> {
-        let live: Vec<u32> = self.collapser.live_slots().collect();
-        self.price_around(&live, |a, other| other > a)
     }
 
     /// The pairs between each of `slots` and its neighbours for which `keep(slot, neighbour)` holds,
@@ -1088,18 +1082,18 @@ impl Builder<'_> {
 
     fn run_greedy(
         &mut self,
+        initial: Vec<Entry>,
         radius: &mut f32,
         per_vertex: usize,
         progress: &mut dyn FnMut(usize, usize),
     ) {
         let total = self.mesh.positions.len() - 1;
         let clock = Instant::now();
-        let mut heap: BinaryHeap<Queued> = self
-            .priced_candidates()
+        let mut heap: BinaryHeap<Queued> = initial
             .into_iter()
             .map(|entry| Queued { entry, created: 0 })
             .collect();
-        self.stats.phases.pricing = clock.elapsed().as_secs_f64();
+        self.stats.phases.pricing += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         let mut changed_at = vec![0u32; self.mesh.positions.len()];
         let mut neighbors: Vec<Neighbor> = Vec::new();
@@ -1331,9 +1325,8 @@ pub fn build(
     // Every pair of the mesh, priced once: its edges and its close pairs are exactly the partners of
     // each slot, listed already.
     let clock = Instant::now();
-    let initial = builder.price_pairs(&edges, true);
+    let mut initial = builder.price_pairs(&edges, true);
     drop(edges);
-    let mut initial = initial;
     initial.extend(builder.price_pairs(&close, false));
     drop(close);
     builder.stats.phases.pricing += clock.elapsed().as_secs_f64();
@@ -1342,7 +1335,9 @@ pub fn build(
         Schedule::Passes => {
             builder.run_passes(initial, &mut radius, options.max_pairs_per_vertex, progress)
         }
-        Schedule::Greedy => builder.run_greedy(&mut radius, options.max_pairs_per_vertex, progress),
+        Schedule::Greedy => {
+            builder.run_greedy(initial, &mut radius, options.max_pairs_per_vertex, progress)
+        }
     }
     progress(n - 1, n - 1);
 
