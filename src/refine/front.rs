@@ -274,19 +274,23 @@ impl Front {
         head
     }
 
-    /// The corner of record `r` at node `u`.
+    /// A link in a node's triangle list: the record and which of its corners is the node, so that a
+    /// walk goes from record to record without comparing corners (each hop is one load).
     #[inline]
-    fn corner_at(&self, r: u32, u: u32) -> usize {
-        let c = self.records[r as usize].corner;
-        debug_assert!(c.contains(&u), "record {r} {c:?} is not around {u}");
-        (c[1] == u) as usize + 2 * (c[2] == u) as usize
+    fn link(r: u32, k: usize) -> u32 {
+        r << 2 | k as u32
+    }
+
+    #[inline]
+    fn unlink(l: u32) -> (u32, usize) {
+        (l >> 2, (l & 3) as usize)
     }
 
     #[inline]
     fn push_around(&mut self, u: u32, r: u32, k: usize) {
         let head = &mut self.active_head[self.front_index[u as usize] as usize];
         self.records[r as usize].next[k] = *head;
-        *head = r;
+        *head = Self::link(r, k);
     }
 
     /// The active node standing for `leaf`, which lies outside the subtree of split node `u`. Two
@@ -346,19 +350,20 @@ impl Front {
             "split of {u}, which is not an active internal node"
         );
         let [c0, c1] = h.children(u);
-        let mut r = self.deactivate(u, SPLIT);
+        let mut l = self.deactivate(u, SPLIT);
         self.activate(c0);
         self.activate(c1);
         let mut group = std::mem::take(&mut self.group);
         group.clear();
         // The triangles around u go to the child holding their input corner.
-        while r != NIL {
-            let k = self.corner_at(r, u);
+        while l != NIL {
+            let (r, k) = Self::unlink(l);
             let rec = &mut self.records[r as usize];
+            debug_assert_eq!(rec.corner[k], u);
             let next = rec.next[k];
             if rec.slot == DEAD {
                 self.free_records.push(r);
-                r = next;
+                l = next;
                 continue;
             }
             let c = h.child_toward(u, rec.input[k]);
@@ -366,7 +371,7 @@ impl Front {
             let corners = rec.corner;
             self.push_around(c, r, k);
             group.push((key(corners), r));
-            r = next;
+            l = next;
         }
         // The triangles whose corners u kept together appear (corner 2 lies outside u's subtree).
         for t in h.appearing(u) {
@@ -409,10 +414,11 @@ impl Front {
         let mut group = std::mem::take(&mut self.group);
         group.clear();
         for (i, (c, other)) in [(c0, c1), (c1, c0)].into_iter().enumerate() {
-            let mut r = heads[i];
-            while r != NIL {
-                let k = self.corner_at(r, c);
+            let mut l = heads[i];
+            while l != NIL {
+                let (r, k) = Self::unlink(l);
                 let rec = self.records[r as usize];
+                debug_assert_eq!(rec.corner[k], c);
                 let next = rec.next[k];
                 if rec.slot == DEAD {
                     // Degenerated in an earlier unify, and only this list still held it.
@@ -432,7 +438,7 @@ impl Front {
                     corners[k] = p;
                     group.push((key(corners), r));
                 }
-                r = next;
+                l = next;
             }
         }
         for r in self.dying.drain(..) {
