@@ -13,7 +13,7 @@
 //! * of live triangles with the same three corners (coincident, seed 001 Fig. 3b) one is drawn.
 //!
 //! Each active node heads a list of the live triangles around it, threaded through the triangles'
-//! records (`next[k]` follows corner `k`), so a split or unify costs time in proportion to the
+//! records (`next[k]` follows corner `k`, as a link naming the next record and its corner at the node), so a split or unify costs time in proportion to the
 //! triangles around the node and never scans the front or the triangle list. Only live triangles have
 //! a record (40 bytes, recycled); the rest cost 4 bytes each, so memory follows the front, not the
 //! model. Coincident triangles share
@@ -54,7 +54,7 @@ const DIRTY_BLOCK: u32 = 64;
 struct Record {
     /// Its corners: the active nodes standing for its input corners (in input winding).
     corner: [u32; 3],
-    /// The next record around corner `k`'s node.
+    /// The next record around corner `k`'s node, as a link ([`Front::link`]).
     next: [u32; 3],
     /// Its input corners (leaves), kept here because every operation on the triangle reads them.
     input: [u32; 3],
@@ -279,6 +279,7 @@ impl Front {
     /// walk goes from record to record without comparing corners (each hop is one load).
     #[inline]
     fn link(r: u32, k: usize) -> u32 {
+        debug_assert!(r < 1 << 30, "more than 2^30 live triangles");
         r << 2 | k as u32
     }
 
