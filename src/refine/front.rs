@@ -13,12 +13,12 @@
 //! * of live triangles with the same three corners (coincident, seed 001 Fig. 3b) one is drawn.
 //!
 //! Each active node heads a list of the live triangles around it, threaded through the triangles'
-//! records (`next[k]` follows corner `k`, as a link naming the next record and its corner at the node), so a split or unify costs time in proportion to the
-//! triangles around the node and never scans the front or the triangle list. Only live triangles have
-//! a record (40 bytes, recycled); the rest cost 4 bytes each, so memory follows the front, not the
-//! model. Coincident triangles share
-//! all three corners, so all of them are in the lists an operation walks: resolving which is drawn
-//! stays local too.
+//! records (`next[k]` follows corner `k`, as a link naming the next record and its corner at the
+//! node), so a split or unify costs time in proportion to the triangles around the node and never
+//! scans the front or the triangle list. Only live triangles have a record (40 bytes, recycled); the
+//! rest cost 4 bytes each, so memory follows the front, not the model. Coincident triangles share all
+//! three corners, so all of them are in the lists an operation walks: resolving which is drawn stays
+//! local too.
 //!
 //! # Output
 //! Vertices are the tree's nodes, by node id: a renderer uploads [`Hierarchy::position`] once and then
