@@ -72,7 +72,7 @@ fn main() {
     for _ in 0..rounds {
         let mut f = start.clone();
         let t0 = Instant::now();
-        f.replay(&h, &log);
+        replay(&mut f, &h, &log);
         let dt = t0.elapsed().as_secs_f64();
         secs += dt;
         best = best.min(dt);
@@ -91,4 +91,11 @@ fn main() {
         f.splits as f64 / (t1 - t0).as_secs_f64() / 1e6,
         f.unifies as f64 / (t2 - t1).as_secs_f64() / 1e6,
     );
+}
+
+/// Not inlined, so that a cache simulator can count this alone
+/// (`valgrind --tool=callgrind --cache-sim=yes --toggle-collect='*ops_profile::replay*'`).
+#[inline(never)]
+fn replay(f: &mut Front, h: &Hierarchy, log: &[u32]) {
+    f.replay(h, log);
 }

@@ -78,7 +78,6 @@ fn has_corner(c: [u32; 3], u: u32) -> bool {
 }
 
 /// The live state of one view of a [`Hierarchy`].
-#[derive(Clone)]
 pub struct Front {
     state: Vec<u8>,
     /// Position of each active node in `active`.
@@ -99,6 +98,35 @@ pub struct Front {
     pub log: Option<Vec<u32>>,
     pub splits: u64,
     pub unifies: u64,
+}
+
+/// A copy with the same room to grow as the original: a front is cloned to go on running (a
+/// snapshot, a benchmark's starting point), and a copy whose arrays had to grow again at once
+/// would not behave like the one it copies.
+impl Clone for Front {
+    fn clone(&self) -> Front {
+        fn with_room<T: Clone>(v: &Vec<T>) -> Vec<T> {
+            let mut copy = Vec::with_capacity(v.capacity());
+            copy.extend_from_slice(v);
+            copy
+        }
+        Front {
+            state: with_room(&self.state),
+            front_index: with_room(&self.front_index),
+            active: with_room(&self.active),
+            active_head: with_room(&self.active_head),
+            records: with_room(&self.records),
+            free_records: with_room(&self.free_records),
+            indices: with_room(&self.indices),
+            slot_record: with_room(&self.slot_record),
+            dirty: with_room(&self.dirty),
+            group: with_room(&self.group),
+            dying: with_room(&self.dying),
+            log: self.log.clone(),
+            splits: self.splits,
+            unifies: self.unifies,
+        }
+    }
 }
 
 impl Front {
@@ -323,6 +351,34 @@ impl Front {
         }
     }
 
+    /// The active node standing for `leaf`, looked for among the corners of `group` (the live
+    /// triangles around a split, in cache) other than the split's children: first a triangle with
+    /// `leaf` for an input corner (on a manifold, an appearing triangle's neighbours across its
+    /// edges to the outside corner are such), then a corner whose subtree holds `leaf` (the edge
+    /// the appearing triangle was has another triangle on it). Their loads are independent of each
+    /// other, where a walk in the tree waits on every step.
+    #[inline]
+    fn outside_corner(
+        &self,
+        h: &Hierarchy,
+        group: &[(u128, u32)],
+        children: [u32; 2],
+        leaf: u32,
+    ) -> Option<u32> {
+        let by_input = group.iter().find_map(|&(_, r)| {
+            let rec = &self.records[r as usize];
+            let j = rec.input.iter().position(|&x| x == leaf)?;
+            Some(rec.corner[j])
+        });
+        by_input.or_else(|| {
+            group.iter().find_map(|&(_, r)| {
+                self.records[r as usize].corner.into_iter().find(|&w| {
+                    w != children[0] && w != children[1] && !h.is_leaf(w) && h.contains(w, leaf)
+                })
+            })
+        })
+    }
+
     /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.
     pub fn representative(&self, h: &Hierarchy, leaf: u32) -> u32 {
         let mut w = leaf;
@@ -381,7 +437,8 @@ impl Front {
             let corner = [
                 h.child_toward(u, input[0]),
                 h.child_toward(u, input[1]),
-                self.find_active_outside(h, u, input[2]),
+                self.outside_corner(h, &group, [c0, c1], input[2])
+                    .unwrap_or_else(|| self.find_active_outside(h, u, input[2])),
             ];
             debug_assert!(
                 corner[0] != corner[1] && corner[1] != corner[2] && corner[0] != corner[2]
