@@ -323,11 +323,11 @@ impl Front {
         *head = Self::link(r, k);
     }
 
-    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`. Two
-    /// walks find it: up from `u` to an ancestor holding the leaf, then down through split nodes; and
-    /// up from the leaf through nodes below the front. The first is short where the front is coarse,
-    /// the second where it is fine; taking them a step each in turn costs the shorter (and their
-    /// loads, independent of each other, overlap).
+    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`, where
+    /// [`Front::outside_corner`] finds none. Two walks find it: up from `u` to an ancestor holding
+    /// the leaf, then down through split nodes; and up from the leaf through nodes below the front.
+    /// The first is short where the front is coarse, the second where it is fine; taking them a step
+    /// each in turn costs the shorter (and their loads, independent of each other, overlap).
     #[inline]
     fn find_active_outside(&self, h: &Hierarchy, u: u32, leaf: u32) -> u32 {
         let mut down = h.parent[u as usize];
@@ -440,6 +440,7 @@ impl Front {
                 self.outside_corner(h, &group, [c0, c1], input[2])
                     .unwrap_or_else(|| self.find_active_outside(h, u, input[2])),
             ];
+            debug_assert_eq!(corner[2], self.representative(h, input[2]));
             debug_assert!(
                 corner[0] != corner[1] && corner[1] != corner[2] && corner[0] != corner[2]
             );
