@@ -301,7 +301,7 @@ fn still_camera_converges_to_the_unamortised_front() {
 
         let view = View::new(camera);
         let tests = Tests::default();
-        for &u in whole.front.active() {
+        for u in whole.front.active() {
             if !h.is_leaf(u) && tests.visible(&h, &view, u) {
                 let px = tests.error_px(&h, &view, u);
                 assert!(
@@ -325,7 +325,7 @@ fn still_camera_converges_to_the_unamortised_front() {
         );
         assert!(strict.update(&h, camera).converged);
         check_front(&h, &strict.front).unwrap();
-        for &u in strict.front.active() {
+        for u in strict.front.active() {
             if !h.is_leaf(u) && strict_tests.visible(&h, &view, u) {
                 let px = strict_tests.error_px(&h, &view, u);
                 assert!(px <= 1.0, "view {k}: strict front node {u} at {px} px > τ");

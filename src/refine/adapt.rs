@@ -220,10 +220,10 @@ impl Refiner {
         let mut visited = 0usize;
         let mut converged = false;
         while visited < limit {
-            if self.cursor >= self.front.active().len() {
+            if self.cursor >= self.front.list().len() {
                 self.cursor = 0;
             }
-            if self.quiet_visits >= self.front.active().len() {
+            if self.quiet_visits >= self.front.active_count() {
                 converged = true;
                 break;
             }
@@ -233,19 +233,25 @@ impl Refiner {
             {
                 break;
             }
-            let active = self.front.active();
+            let list = self.front.list();
             // The front list is in memory order (mostly): ask for what the visits a little ahead
             // will read, so that their loads overlap with this one's work (see `prefetch_visit`).
-            if let Some(&ahead) = active.get(self.cursor + VISIT_AHEAD) {
+            if let Some(&ahead) = list.get(self.cursor + VISIT_AHEAD) {
                 prefetch_visit(h, ahead, false);
             }
-            if let Some(&ahead) = active.get(self.cursor + VISIT_AHEAD / 2) {
+            if let Some(&ahead) = list.get(self.cursor + VISIT_AHEAD / 2) {
                 prefetch_visit(h, ahead, true);
             }
-            let u = active[self.cursor];
+            let u = list[self.cursor];
+            if !self.front.is_active(u) {
+                // Left the front since it was listed: the last entry takes its place, and is next.
+                self.front.unlist(self.cursor);
+                continue;
+            }
             visited += 1;
             if self.visit(h, &view, u, tau, cap) {
-                // The front changed under the cursor: whatever was swapped into it is next.
+                // The front changed under the cursor: the visit left the front, and its entry goes
+                // next time round.
                 self.quiet_visits = 0;
             } else {
                 self.quiet_visits += 1;
@@ -253,7 +259,7 @@ impl Refiner {
             }
         }
         FrameStats {
-            active_vertices: self.front.active().len() as u32,
+            active_vertices: self.front.active_count() as u32,
             triangles: self.front.triangle_count() as u32,
             splits: (self.front.splits - splits0) as u32,
             unifies: (self.front.unifies - unifies0) as u32,

@@ -32,6 +32,9 @@ use super::hierarchy::{Hierarchy, NIL};
 pub const BELOW: u8 = 0;
 pub const ACTIVE: u8 = 1;
 pub const SPLIT: u8 = 2;
+/// Set in `state` beside the state while the node has an entry in the front list (see
+/// [`Front::list`]): entries of nodes that left the front stay until a visit drops them.
+const LISTED: u8 = 0x80;
 
 /// `slot` of a live triangle that is not drawn: another live triangle has the same corners.
 const HIDDEN: u32 = u32::MAX;
@@ -79,12 +82,14 @@ fn has_corner(c: [u32; 3], u: u32) -> bool {
 
 /// The live state of one view of a [`Hierarchy`].
 pub struct Front {
+    /// Each node's state, with `LISTED`.
     state: Vec<u8>,
-    /// Position of each active node in `active`.
-    front_index: Vec<u32>,
-    /// The active nodes, in no particular order, and the first record around each.
-    active: Vec<u32>,
-    active_head: Vec<u32>,
+    /// The first record around each active node, as a link.
+    head: Vec<u32>,
+    /// The front list: every active node once, in no particular order, and nodes that have left
+    /// the front since (see [`Front::list`]).
+    list: Vec<u32>,
+    active_count: usize,
     records: Vec<Record>,
     free_records: Vec<u32>,
     /// Drawn triangles as node ids, packed, and the record behind each.
@@ -112,9 +117,9 @@ impl Clone for Front {
         }
         Front {
             state: with_room(&self.state),
-            front_index: with_room(&self.front_index),
-            active: with_room(&self.active),
-            active_head: with_room(&self.active_head),
+            head: with_room(&self.head),
+            list: with_room(&self.list),
+            active_count: self.active_count,
             records: with_room(&self.records),
             free_records: with_room(&self.free_records),
             indices: with_room(&self.indices),
@@ -135,14 +140,12 @@ impl Front {
         let nodes = h.node_count() as usize;
         let root = h.root();
         let mut state = vec![BELOW; nodes];
-        state[root as usize] = ACTIVE;
-        let mut front_index = vec![NIL; nodes];
-        front_index[root as usize] = 0;
+        state[root as usize] = ACTIVE | LISTED;
         Front {
             state,
-            front_index,
-            active: vec![root],
-            active_head: vec![NIL],
+            head: vec![NIL; nodes],
+            list: vec![root],
+            active_count: 1,
             records: Vec::new(),
             free_records: Vec::new(),
             indices: Vec::new(),
@@ -188,17 +191,43 @@ impl Front {
         Ok(front)
     }
 
+    #[inline]
     pub fn state(&self, u: u32) -> u8 {
-        self.state[u as usize]
+        self.state[u as usize] & !LISTED
     }
 
+    #[inline]
     pub fn is_active(&self, u: u32) -> bool {
-        self.state[u as usize] == ACTIVE
+        self.state(u) == ACTIVE
     }
 
     /// The active nodes (the current vertex chain), in no particular order.
-    pub fn active(&self) -> &[u32] {
-        &self.active
+    pub fn active(&self) -> Vec<u32> {
+        self.list
+            .iter()
+            .copied()
+            .filter(|&u| self.is_active(u))
+            .collect()
+    }
+
+    /// How many nodes are active.
+    pub fn active_count(&self) -> usize {
+        self.active_count
+    }
+
+    /// The front list that visits walk: every active node once, and nodes that left the front
+    /// since their entry was made, which [`Front::unlist`] drops when a visit meets them. Keeping
+    /// them saves every operation a position lookup and an update of the list.
+    pub fn list(&self) -> &[u32] {
+        &self.list
+    }
+
+    /// Drops entry `i` of the front list, whose node is no longer active; the last entry takes its
+    /// place.
+    pub fn unlist(&mut self, i: usize) {
+        let u = self.list.swap_remove(i);
+        debug_assert!(!self.is_active(u), "unlisting active node {u}");
+        self.state[u as usize] &= !LISTED;
     }
 
     /// The drawn triangles, as node ids (vertex indices into the node arrays).
@@ -229,19 +258,18 @@ impl Front {
 
     /// Puts the front list in node order: depth-first numbering makes that the order in which nodes
     /// lie in memory, so a sweep over the front streams instead of jumping (operations scatter it).
+    /// Drops the entries of nodes that left the front, too.
     pub fn sort_active(&mut self) {
-        let mut pairs: Vec<(u32, u32)> = self
-            .active
-            .iter()
-            .copied()
-            .zip(self.active_head.iter().copied())
-            .collect();
-        pairs.sort_unstable_by_key(|p| p.0);
-        for (i, (u, head)) in pairs.into_iter().enumerate() {
-            self.active[i] = u;
-            self.active_head[i] = head;
-            self.front_index[u as usize] = i as u32;
-        }
+        let mut list = std::mem::take(&mut self.list);
+        list.retain(|&u| {
+            let keep = self.is_active(u);
+            if !keep {
+                self.state[u as usize] &= !LISTED;
+            }
+            keep
+        });
+        list.sort_unstable();
+        self.list = list;
     }
 
     /// Slot ranges of [`Front::indices`] written since the last call, merged, clipped to the current
@@ -272,9 +300,8 @@ impl Front {
     pub fn bytes(&self) -> usize {
         use std::mem::size_of;
         self.state.capacity()
-            + self.front_index.capacity() * 4
-            + self.active.capacity() * 4
-            + self.active_head.capacity() * 4
+            + self.head.capacity() * 4
+            + self.list.capacity() * 4
             + self.records.capacity() * size_of::<Record>()
             + self.free_records.capacity() * 4
             + self.indices.capacity() * size_of::<[u32; 3]>()
@@ -284,23 +311,22 @@ impl Front {
     }
 
     fn activate(&mut self, u: u32) {
-        self.state[u as usize] = ACTIVE;
-        self.front_index[u as usize] = self.active.len() as u32;
-        self.active.push(u);
-        self.active_head.push(NIL);
+        let state = &mut self.state[u as usize];
+        if *state & LISTED == 0 {
+            self.list.push(u);
+        }
+        *state = ACTIVE | LISTED;
+        self.head[u as usize] = NIL;
+        self.active_count += 1;
     }
 
-    /// Takes `u` off the front; returns the first record around it.
+    /// Takes `u` off the front; returns the first record around it. Its front list entry stays
+    /// (see [`Front::list`]).
     fn deactivate(&mut self, u: u32, to: u8) -> u32 {
-        self.state[u as usize] = to;
-        let i = self.front_index[u as usize] as usize;
-        let head = self.active_head.swap_remove(i);
-        self.active.swap_remove(i);
-        if let Some(&moved) = self.active.get(i) {
-            self.front_index[moved as usize] = i as u32;
-        }
-        self.front_index[u as usize] = NIL;
-        head
+        let state = &mut self.state[u as usize];
+        *state = to | (*state & LISTED);
+        self.active_count -= 1;
+        self.head[u as usize]
     }
 
     /// A link in a node's triangle list: the record and which of its corners is the node, so that a
@@ -318,7 +344,7 @@ impl Front {
 
     #[inline]
     fn push_around(&mut self, u: u32, r: u32, k: usize) {
-        let head = &mut self.active_head[self.front_index[u as usize] as usize];
+        let head = &mut self.head[u as usize];
         self.records[r as usize].next[k] = *head;
         *head = Self::link(r, k);
     }
@@ -334,12 +360,12 @@ impl Front {
         let mut descending = false;
         let mut up = leaf;
         loop {
-            if self.state[up as usize] != BELOW {
+            if self.state(up) != BELOW {
                 return up;
             }
             up = h.parent[up as usize];
             if descending {
-                if self.state[down as usize] != SPLIT {
+                if self.state(down) != SPLIT {
                     return down;
                 }
                 down = h.child_toward(down, leaf);
@@ -382,7 +408,7 @@ impl Front {
     /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.
     pub fn representative(&self, h: &Hierarchy, leaf: u32) -> u32 {
         let mut w = leaf;
-        while self.state[w as usize] == BELOW {
+        while self.state(w) == BELOW {
             w = h.parent[w as usize];
         }
         w
@@ -610,7 +636,7 @@ impl Front {
 
     /// Splits until every active node is a leaf: the input mesh.
     pub fn refine_all(&mut self, h: &Hierarchy) {
-        let mut stack: Vec<u32> = self.active.clone();
+        let mut stack: Vec<u32> = self.active();
         while let Some(u) = stack.pop() {
             if self.can_split(h, u) {
                 self.split(h, u);
@@ -624,7 +650,7 @@ impl Front {
         // Internal nodes are in pre-order: a reverse sweep unifies each split node after its
         // children.
         for p in (h.leaf_count..h.node_count()).rev() {
-            if self.state[p as usize] == SPLIT {
+            if self.state(p) == SPLIT {
                 self.unify(h, p);
             }
         }
