@@ -250,8 +250,8 @@ impl Refiner {
             }
             visited += 1;
             if self.visit(h, &view, u, tau, cap) {
-                // The front changed under the cursor: the visit left the front, and its entry goes
-                // next time round.
+                // The front changed under the cursor: `u` left the front, and the next turn drops
+                // its entry.
                 self.quiet_visits = 0;
             } else {
                 self.quiet_visits += 1;

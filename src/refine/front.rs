@@ -224,7 +224,7 @@ impl Front {
 
     /// Drops entry `i` of the front list, whose node is no longer active; the last entry takes its
     /// place.
-    pub fn unlist(&mut self, i: usize) {
+    pub(crate) fn unlist(&mut self, i: usize) {
         let u = self.list.swap_remove(i);
         debug_assert!(!self.is_active(u), "unlisting active node {u}");
         self.state[u as usize] &= !LISTED;
