@@ -75,6 +75,15 @@ fn key([a, b, c]: [u32; 3]) -> u128 {
     (lo.min(mid) as u128) << 64 | (lo.max(mid) as u128) << 32 | top as u128
 }
 
+/// Which of 256 bits a [`key`] sets in [`Front::settle`]'s filter: the top byte of a
+/// multiplicative hash of its three corners.
+#[inline]
+fn filter_bit(key: u128) -> usize {
+    const K: u64 = 0x9E37_79B9_7F4A_7C15;
+    let h = ((key >> 64) as u64).wrapping_mul(K) ^ key as u64;
+    (h.wrapping_mul(K) >> 56) as usize
+}
+
 #[inline]
 fn has_corner(c: [u32; 3], u: u32) -> bool {
     (c[0] == u) | (c[1] == u) | (c[2] == u)
@@ -434,6 +443,9 @@ impl Front {
             "split of {u}, which is not an active internal node"
         );
         let [c0, c1] = h.children(u);
+        // Leaves below `mid` are the first child's (see `Internal`).
+        let mid = h.internal[(u - h.leaf_count) as usize].mid;
+        let child_toward = |leaf: u32| if leaf < mid { c0 } else { c1 };
         let mut l = self.deactivate(u, SPLIT);
         self.activate(c0);
         self.activate(c1);
@@ -450,7 +462,7 @@ impl Front {
                 l = next;
                 continue;
             }
-            let c = h.child_toward(u, rec.input[k]);
+            let c = child_toward(rec.input[k]);
             rec.corner[k] = c;
             let corners = rec.corner;
             self.push_around(c, r, k);
@@ -461,8 +473,8 @@ impl Front {
         for t in h.appearing(u) {
             let input = h.triangles[t as usize];
             let corner = [
-                h.child_toward(u, input[0]),
-                h.child_toward(u, input[1]),
+                child_toward(input[0]),
+                child_toward(input[1]),
                 self.outside_corner(h, &group, [c0, c1], input[2])
                     .unwrap_or_else(|| self.find_active_outside(h, u, input[2])),
             ];
@@ -542,13 +554,18 @@ impl Front {
     /// coincident with one of them is in the group too. Of each set with the same corners one is
     /// drawn (the one already drawn, if any, to keep slots still); its indices are rewritten.
     fn settle(&mut self, mut group: Vec<(u128, u32)>) {
-        // Coincident triangles are rare: look for any before sorting (a dozen triangles, so a
-        // quadratic scan is the cheaper test).
-        let coincident = group.len() > SCAN_LIMIT
-            || group
-                .iter()
-                .enumerate()
-                .any(|(i, a)| group[..i].iter().any(|b| b.0 == a.0));
+        // Coincident triangles are rare: look for any before sorting. Each key sets a bit of a
+        // 256-bit filter; only a key whose bit is already set is compared with those before it.
+        let coincident = group.len() > SCAN_LIMIT || {
+            let mut seen = [0u64; 4];
+            group.iter().enumerate().any(|(i, a)| {
+                let b = filter_bit(a.0);
+                let (word, bit) = (b >> 6, 1u64 << (b & 63));
+                let maybe = seen[word] & bit != 0;
+                seen[word] |= bit;
+                maybe && group[..i].iter().any(|x| x.0 == a.0)
+            })
+        };
         if !coincident {
             for &(_, r) in &group {
                 self.draw(r);
@@ -582,12 +599,17 @@ impl Front {
     }
 
     /// Gives record `r` a slot if it has none and writes its corners there.
+    #[inline(always)]
     fn draw(&mut self, r: u32) {
         let rec = &mut self.records[r as usize];
         if rec.slot == HIDDEN {
             rec.slot = self.indices.len() as u32;
             self.indices.push([0; 3]);
             self.slot_record.push(r);
+            let words = (self.indices.len() as u32).div_ceil(DIRTY_BLOCK * 64) as usize;
+            if self.dirty.len() < words {
+                self.dirty.resize(words, 0);
+            }
         }
         let s = rec.slot;
         self.indices[s as usize] = rec.corner;
@@ -614,13 +636,11 @@ impl Front {
         self.slot_record.pop();
     }
 
+    /// Marks a slot's block dirty (`dirty` covers every slot: [`Front::draw`] grows it).
+    #[inline]
     fn mark(&mut self, slot: u32) {
         let block = (slot / DIRTY_BLOCK) as usize;
-        let word = block / 64;
-        if word >= self.dirty.len() {
-            self.dirty.resize(word + 1, 0);
-        }
-        self.dirty[word] |= 1 << (block % 64);
+        self.dirty[block / 64] |= 1 << (block % 64);
     }
 
     /// Applies a [`Front::log`] recorded from the same starting front.
