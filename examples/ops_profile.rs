@@ -60,9 +60,16 @@ fn main() {
     refiner.update(&h, &cameras[0]);
     let start = refiner.front.clone();
     refiner.front.log = Some(Vec::new());
-    for cam in &cameras[1..] {
-        refiner.update(&h, cam);
-    }
+    let mut op_secs = 0.0;
+    let mut frame_ms: Vec<f64> = cameras[1..]
+        .iter()
+        .map(|cam| {
+            let stats = refiner.update(&h, cam);
+            op_secs += stats.operation_secs;
+            stats.refine_secs * 1e3
+        })
+        .collect();
+    frame_ms.sort_by(f64::total_cmp);
     let log = refiner.front.log.take().unwrap();
     let rounds: usize = std::env::var("ROUNDS")
         .ok()
@@ -83,6 +90,11 @@ fn main() {
     let t1 = Instant::now();
     f.coarsen_all(&h);
     let t2 = Instant::now();
+    println!(
+        "orbit frames: median {:.3} ms; in the loop {:.2} M ops/s",
+        frame_ms[frame_ms.len() / 2],
+        (refiner.front.splits + refiner.front.unifies) as f64 / op_secs / 1e6
+    );
     println!(
         "{} ops x {rounds}: {:.2} M ops/s (best round {:.2}); sweep: split {:.2} M/s, unify {:.2} M/s",
         log.len(),

@@ -63,8 +63,37 @@ const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 /// the operations of a few frames scatter only a small part of it.
 const SORT_EVERY: u32 = 8;
 
-/// Visits prefetch the data of the visit this many ahead, and of its parent half as many ahead.
-const VISIT_AHEAD: usize = 16;
+/// Visits prefetch the data of the visit this many ahead, and of its parent `PARENT_AHEAD` ahead:
+/// enough visits for each load to arrive before the next stage, [`DECIDE_AHEAD`], needs it.
+const VISIT_AHEAD: usize = 24;
+const PARENT_AHEAD: usize = 14;
+/// The view tests of the visit this many ahead are decided early (their data has arrived), and the
+/// data of the operation they ask for is prefetched ([`Front::prefetch_split`]); its first records
+/// follow at `RECORDS_AHEAD`, once the list heads have arrived.
+const DECIDE_AHEAD: usize = 4;
+const RECORDS_AHEAD: usize = 2;
+/// Decisions made ahead, by list position modulo this (a power of two above `DECIDE_AHEAD`).
+const RING: usize = 8;
+
+/// What the view tests ask of an active node: both depend only on the node and the view, so a
+/// decision made a few visits early holds when the visit comes (the front's state, which can
+/// change meanwhile, is checked then).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Decision {
+    node: u32,
+    /// Split the node.
+    split: bool,
+    /// Unify its parent (weighed from the first child only: the second would ask the same);
+    /// `None` when not weighed because the parent could not unify then (its second child was not
+    /// on the front), which the visit checks again.
+    unify_parent: Option<bool>,
+}
+
+const UNDECIDED: Decision = Decision {
+    node: NIL,
+    split: false,
+    unify_parent: Some(false),
+};
 
 /// A hint for the memory system: what visiting front node `u` reads — its position, view data and
 /// parent — or, at the `parent` stage (which needs the first one's load of the parent id), what weighing
@@ -100,6 +129,9 @@ pub struct FrameStats {
     pub morphing: u32,
     /// Time spent adapting, in seconds.
     pub refine_secs: f64,
+    /// Of that, time spent inside the splits and unifies themselves (what the operations cost in
+    /// the loop, with the look-ahead's prefetching; each is timed, which adds a clock read).
+    pub operation_secs: f64,
     /// τ used this frame (varies in budget mode).
     pub tolerance_px: f32,
     /// A whole sweep of the front went by without a change.
@@ -129,6 +161,10 @@ pub struct Refiner {
     frames_since_sort: u32,
     /// The camera and τ of the last frame: a convergence holds only while they stay.
     last_view: Option<(Camera, f32, Settings)>,
+    /// Time spent in splits and unifies this frame.
+    operation_time: Duration,
+    /// Decisions made ahead of the cursor, by list position modulo `RING`.
+    ahead: [Decision; RING],
 }
 
 impl Refiner {
@@ -149,6 +185,8 @@ impl Refiner {
             budget_tau: settings.tolerance_px,
             frames_since_sort: 0,
             last_view: None,
+            ahead: [UNDECIDED; RING],
+            operation_time: Duration::ZERO,
         }
     }
 
@@ -216,6 +254,8 @@ impl Refiner {
             self.frames_since_sort = 0;
             self.cursor = 0;
         }
+        // Decisions are for this frame's view only.
+        self.ahead = [UNDECIDED; RING];
         let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
         let mut visited = 0usize;
         let mut converged = false;
@@ -233,16 +273,8 @@ impl Refiner {
             {
                 break;
             }
-            let list = self.front.list();
-            // The front list is in memory order (mostly): ask for what the visits a little ahead
-            // will read, so that their loads overlap with this one's work (see `prefetch_visit`).
-            if let Some(&ahead) = list.get(self.cursor + VISIT_AHEAD) {
-                prefetch_visit(h, ahead, false);
-            }
-            if let Some(&ahead) = list.get(self.cursor + VISIT_AHEAD / 2) {
-                prefetch_visit(h, ahead, true);
-            }
-            let u = list[self.cursor];
+            self.look_ahead(h, &view, tau);
+            let u = self.front.list()[self.cursor];
             if !self.front.is_active(u) {
                 // Left the front since it was listed: the last entry takes its place, and is next.
                 self.front.unlist(self.cursor);
@@ -266,8 +298,67 @@ impl Refiner {
             visited: visited as u32,
             morphing: self.morphs.len() as u32,
             refine_secs: start.elapsed().as_secs_f64(),
+            operation_secs: std::mem::take(&mut self.operation_time).as_secs_f64(),
             tolerance_px: tau,
             converged,
+        }
+    }
+
+    /// Works ahead of the cursor, so that the loads of the visits and operations to come overlap
+    /// with this one's work instead of queueing after it. The front list is in memory order
+    /// (mostly), and a visit or operation only changes it at the cursor and at its end: the
+    /// entries ahead stay where they are until the cursor reaches them.
+    fn look_ahead(&mut self, h: &Hierarchy, view: &View, tau: f32) {
+        let list = self.front.list();
+        let at = |i: usize| list.get(self.cursor + i).copied();
+        if let Some(v) = at(VISIT_AHEAD) {
+            prefetch_visit(h, v, false);
+        }
+        if let Some(v) = at(PARENT_AHEAD) {
+            prefetch_visit(h, v, true);
+        }
+        if let Some(v) = at(DECIDE_AHEAD) {
+            let slot = (self.cursor + DECIDE_AHEAD) % RING;
+            // (A node that has left the front gets a decision too: its entry is dropped unused.)
+            if self.ahead[slot].node != v {
+                let d = self.decide(h, view, v, tau);
+                if d.split {
+                    self.front.prefetch_split(h, v);
+                } else if d.unify_parent == Some(true) {
+                    self.front.prefetch_unify(h, h.parent[v as usize]);
+                }
+                self.ahead[slot] = d;
+            }
+        }
+        if let Some(v) = at(RECORDS_AHEAD) {
+            let d = self.ahead[(self.cursor + RECORDS_AHEAD) % RING];
+            if d.node == v {
+                if d.split {
+                    self.front.prefetch_lists(&[v]);
+                } else if d.unify_parent == Some(true) {
+                    self.front.prefetch_lists(&h.children(h.parent[v as usize]));
+                }
+            }
+        }
+    }
+
+    /// What the view tests ask of active node `u` (see [`Decision`]).
+    #[inline(always)]
+    fn decide(&self, h: &Hierarchy, view: &View, u: u32, tau: f32) -> Decision {
+        let tests = self.settings.tests;
+        let split = !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau;
+        let p = h.parent[u as usize];
+        let unify_parent = if split || p == NIL || h.children(p)[0] != u {
+            Some(false)
+        } else if self.front.can_unify(h, p) {
+            Some(self.wants_unify(h, view, p, tau))
+        } else {
+            None
+        };
+        Decision {
+            node: u,
+            split,
+            unify_parent,
         }
     }
 
@@ -286,16 +377,21 @@ impl Refiner {
             self.cancel_unify(h, p);
             return false;
         }
-        if !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau {
+        let early = self.ahead[self.cursor % RING];
+        let d = if early.node == u {
+            early
+        } else {
+            self.decide(h, view, u, tau)
+        };
+        if d.split {
             return self.split(h, u, cap);
         }
-        // The parent is weighed from its first child only: the second would ask the same question.
         let p = h.parent[u as usize];
-        if p != NIL
-            && h.children(p)[0] == u
-            && self.front.can_unify(h, p)
-            && self.wants_unify(h, view, p, tau)
-        {
+        let unify = match d.unify_parent {
+            Some(wanted) => wanted,
+            None => self.front.can_unify(h, p) && self.wants_unify(h, view, p, tau),
+        };
+        if unify && self.front.can_unify(h, p) {
             let instant = self.settings.geomorph_frames == 0 || !tests.visible(h, view, p);
             if instant {
                 self.unify(h, p);
@@ -321,11 +417,14 @@ impl Refiner {
             return false;
         }
         let from = self.displayed(h, u);
+        let t0 = Instant::now();
         self.front.split(h, u);
         if self.front.triangle_count() > cap {
             self.front.unify(h, u);
+            self.operation_time += t0.elapsed();
             return false;
         }
+        self.operation_time += t0.elapsed();
         if self.morphs.remove(&u).is_some() {
             self.vertex_updates.push((u, h.position[u as usize]));
         }
@@ -352,7 +451,9 @@ impl Refiner {
                 self.vertex_updates.push((c, h.position[c as usize]));
             }
         }
+        let t0 = Instant::now();
         self.front.unify(h, p);
+        self.operation_time += t0.elapsed();
     }
 
     /// The reverse geomorph: both children move to the parent's position, then unify.

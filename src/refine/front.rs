@@ -265,6 +265,49 @@ impl Front {
         !h.is_leaf(p) && h.children(p).iter().all(|&c| self.is_active(c))
     }
 
+    /// A hint for the memory system: `u`'s state, which a visit reads first.
+    pub fn prefetch_state(&self, u: u32) {
+        crate::prefetch(&self.state[u as usize]);
+    }
+
+    /// A hint for the memory system, some visits before `split(u)`: the states and list heads
+    /// of `u` and its children, and the triangles that appear. [`Front::prefetch_lists`] asks for
+    /// the first records once the heads have arrived.
+    pub fn prefetch_split(&self, h: &Hierarchy, u: u32) {
+        let [c0, c1] = h.children(u);
+        for v in [u, c0, c1] {
+            crate::prefetch(&self.state[v as usize]);
+            crate::prefetch(&self.head[v as usize]);
+        }
+        if let Some(t) = h.triangles.get(h.appearing(u).start as usize) {
+            crate::prefetch(t);
+        }
+    }
+
+    /// A hint for the memory system, some visits before `unify(p)`: the states and list heads of
+    /// `p` and its children.
+    pub fn prefetch_unify(&self, h: &Hierarchy, p: u32) {
+        let [c0, c1] = h.children(p);
+        for v in [p, c0, c1] {
+            crate::prefetch(&self.state[v as usize]);
+            crate::prefetch(&self.head[v as usize]);
+        }
+    }
+
+    /// The second stage of [`Front::prefetch_split`] and [`Front::prefetch_unify`]: the first
+    /// record around each active one of `nodes`, whose heads were asked for.
+    pub fn prefetch_lists(&self, nodes: &[u32]) {
+        for &v in nodes {
+            let l = self.head[v as usize];
+            if self.is_active(v) && l != NIL {
+                // Records are 40 bytes: half of them straddle two cache lines.
+                let rec = &self.records[Self::unlink(l).0 as usize];
+                crate::prefetch(&rec.corner);
+                crate::prefetch(&rec.slot);
+            }
+        }
+    }
+
     /// Puts the front list in node order: depth-first numbering makes that the order in which nodes
     /// lie in memory, so a sweep over the front streams instead of jumping (operations scatter it).
     /// Drops the entries of nodes that left the front, too.
