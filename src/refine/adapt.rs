@@ -63,17 +63,20 @@ const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 /// the operations of a few frames scatter only a small part of it.
 const SORT_EVERY: u32 = 8;
 
-/// Visits prefetch the data of the visit this many ahead, and of its parent `PARENT_AHEAD` ahead:
-/// enough visits for each load to arrive before the next stage, [`DECIDE_AHEAD`], needs it.
-const VISIT_AHEAD: usize = 24;
-const PARENT_AHEAD: usize = 14;
-/// The view tests of the visit this many ahead are decided early (their data has arrived), and the
-/// data of the operation they ask for is prefetched ([`Front::prefetch_split`]); its first records
-/// follow at `RECORDS_AHEAD`, once the list heads have arrived.
-const DECIDE_AHEAD: usize = 4;
-const RECORDS_AHEAD: usize = 2;
+/// The look-ahead's stages, in visits ahead of the cursor (see [`Refiner::look_ahead`]). A visit
+/// takes ~40 ns and a load from memory ~150 ns here, so each stage comes a few visits after the one
+/// whose loads it needs. First the data of the visit (`VISIT_AHEAD`) and of its parent
+/// (`PARENT_AHEAD`, which needs the parent id); then its view tests are decided early
+/// (`DECIDE_AHEAD`) and the data of the operation they ask for is asked for
+/// ([`Front::prefetch_split`]); then the records around it, one hop along its lists per stage
+/// (`RECORDS_AHEAD`, [`Front::prefetch_lists`]): a list is a pointer chase, which no single
+/// prefetch can cover.
+const VISIT_AHEAD: usize = 40;
+const PARENT_AHEAD: usize = 29;
+const DECIDE_AHEAD: usize = 18;
+const RECORDS_AHEAD: [usize; 8] = [16, 14, 12, 10, 8, 6, 4, 2];
 /// Decisions made ahead, by list position modulo this (a power of two above `DECIDE_AHEAD`).
-const RING: usize = 8;
+const RING: usize = 32;
 
 /// What the view tests ask of an active node: both depend only on the node and the view, so a
 /// decision made a few visits early holds when the visit comes (the front's state, which can
@@ -165,6 +168,9 @@ pub struct Refiner {
     operation_time: Duration,
     /// Decisions made ahead of the cursor, by list position modulo `RING`.
     ahead: [Decision; RING],
+    /// The list position of the last decision made ahead that asks for an operation: until the
+    /// cursor passes it, visits prefetch along its lists.
+    operation_ahead: usize,
 }
 
 impl Refiner {
@@ -186,6 +192,7 @@ impl Refiner {
             frames_since_sort: 0,
             last_view: None,
             ahead: [UNDECIDED; RING],
+            operation_ahead: 0,
             operation_time: Duration::ZERO,
         }
     }
@@ -256,12 +263,14 @@ impl Refiner {
         }
         // Decisions are for this frame's view only.
         self.ahead = [UNDECIDED; RING];
+        self.operation_ahead = 0;
         let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
         let mut visited = 0usize;
         let mut converged = false;
         while visited < limit {
             if self.cursor >= self.front.list().len() {
                 self.cursor = 0;
+                self.operation_ahead = 0;
             }
             if self.quiet_visits >= self.front.active_count() {
                 converged = true;
@@ -327,16 +336,24 @@ impl Refiner {
                 } else if d.unify_parent == Some(true) {
                     self.front.prefetch_unify(h, h.parent[v as usize]);
                 }
+                if d.split || d.unify_parent == Some(true) {
+                    self.operation_ahead = self.cursor + DECIDE_AHEAD;
+                }
                 self.ahead[slot] = d;
             }
         }
-        if let Some(v) = at(RECORDS_AHEAD) {
-            let d = self.ahead[(self.cursor + RECORDS_AHEAD) % RING];
+        if self.operation_ahead <= self.cursor {
+            return;
+        }
+        for (hop, ahead) in RECORDS_AHEAD.into_iter().enumerate() {
+            let Some(v) = at(ahead) else { continue };
+            let d = self.ahead[(self.cursor + ahead) % RING];
             if d.node == v {
                 if d.split {
-                    self.front.prefetch_lists(&[v]);
+                    self.front.prefetch_lists(&[v], hop);
                 } else if d.unify_parent == Some(true) {
-                    self.front.prefetch_lists(&h.children(h.parent[v as usize]));
+                    self.front
+                        .prefetch_lists(&h.children(h.parent[v as usize]), hop);
                 }
             }
         }

@@ -225,7 +225,7 @@ impl Front {
     }
 
     /// The front list that visits walk: every active node once, and nodes that left the front
-    /// since their entry was made, which [`Front::unlist`] drops when a visit meets them. Keeping
+    /// since their entry was made, which the runtime drops when a visit meets them. Keeping
     /// them saves every operation a position lookup and an update of the list.
     pub fn list(&self) -> &[u32] {
         &self.list
@@ -294,12 +294,29 @@ impl Front {
         }
     }
 
-    /// The second stage of [`Front::prefetch_split`] and [`Front::prefetch_unify`]: the first
-    /// record around each active one of `nodes`, whose heads were asked for.
-    pub fn prefetch_lists(&self, nodes: &[u32]) {
+    /// The later stages of [`Front::prefetch_split`] and [`Front::prefetch_unify`]: record `hop`
+    /// (0 for the first) of the list around each active one of `nodes`, reached through the
+    /// records that earlier stages asked for.
+    pub fn prefetch_lists(&self, nodes: &[u32], hop: usize) {
         for &v in nodes {
-            let l = self.head[v as usize];
-            if self.is_active(v) && l != NIL {
+            if !self.is_active(v) {
+                continue;
+            }
+            let mut l = self.head[v as usize];
+            let mut last = None;
+            for _ in 0..hop {
+                if l == NIL {
+                    break;
+                }
+                let (r, k) = Self::unlink(l);
+                let rec = &self.records[r as usize];
+                (l, last) = (rec.next[k], Some(rec.slot));
+            }
+            // The drawn triangle of the record the last stage asked for: the operation rewrites it.
+            if let Some(drawn) = last.and_then(|s| self.indices.get(s as usize)) {
+                crate::prefetch(drawn);
+            }
+            if l != NIL {
                 // Records are 40 bytes: half of them straddle two cache lines.
                 let rec = &self.records[Self::unlink(l).0 as usize];
                 crate::prefetch(&rec.corner);
