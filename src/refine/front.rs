@@ -265,11 +265,6 @@ impl Front {
         !h.is_leaf(p) && h.children(p).iter().all(|&c| self.is_active(c))
     }
 
-    /// A hint for the memory system: `u`'s state, which a visit reads first.
-    pub fn prefetch_state(&self, u: u32) {
-        crate::prefetch(&self.state[u as usize]);
-    }
-
     /// A hint for the memory system, some visits before `split(u)`: the states and list heads
     /// of `u` and its children, and the triangles that appear. [`Front::prefetch_lists`] asks for
     /// the first records once the heads have arrived.
