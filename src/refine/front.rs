@@ -45,10 +45,6 @@ const DEAD: u32 = u32::MAX - 1;
 /// `slot` of a record degenerating in the unify under way: in both children's lists, freed by neither.
 const DYING: u32 = u32::MAX - 2;
 
-/// Up to this many triangles around an operation, coincident ones are looked for by comparing every
-/// pair; more (rare: high-valence nodes of coarse fronts) are sorted.
-const SCAN_LIMIT: usize = 32;
-
 /// Dirty tracking granularity, in triangles: one bit per 64 triangles (768 bytes of indices).
 const DIRTY_BLOCK: u32 = 64;
 
@@ -75,13 +71,83 @@ fn key([a, b, c]: [u32; 3]) -> u128 {
     (lo.min(mid) as u128) << 64 | (lo.max(mid) as u128) << 32 | top as u128
 }
 
-/// Which of 256 bits a [`key`] sets in [`Front::settle`]'s filter: the top byte of a
-/// multiplicative hash of its three corners.
-#[inline]
-fn filter_bit(key: u128) -> usize {
-    const K: u64 = 0x9E37_79B9_7F4A_7C15;
-    let h = ((key >> 64) as u64).wrapping_mul(K) ^ key as u64;
-    (h.wrapping_mul(K) >> 56) as usize
+/// The corner sets of the operation under way, to find coincident triangles among those that got
+/// new corners (about two dozen an operation): an open-addressed hash table of record ids, each
+/// entry stamped with the operation it belongs to, so that no operation has to clear it. An
+/// operation sorts its group by [`key`] only when this finds a coincidence (4 % of them).
+#[derive(Clone)]
+struct Seen {
+    /// `stamp << 32 | record`; an entry with another stamp is empty.
+    table: Vec<u64>,
+    stamp: u32,
+    count: usize,
+    /// A triangle with the same corners as an earlier one was added, or too many were.
+    coincident: bool,
+}
+
+/// log2 of [`Seen`]'s table size.
+const SEEN_BITS: u32 = 10;
+/// Past this many triangles in one operation (high-valence nodes of coarse fronts), [`Seen`] gives
+/// up and the operation sorts its group.
+const SEEN_LIMIT: usize = 1 << (SEEN_BITS - 2);
+
+impl Seen {
+    fn new() -> Seen {
+        Seen {
+            table: vec![0; 1 << SEEN_BITS],
+            stamp: 0,
+            count: 0,
+            coincident: false,
+        }
+    }
+
+    #[inline(always)]
+    fn start(&mut self) {
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            self.table.fill(0);
+            self.stamp = 1;
+        }
+        self.count = 0;
+        self.coincident = false;
+    }
+
+    /// Adds record `r`, whose corners are now `corners`.
+    #[inline(always)]
+    fn add(&mut self, records: &[Record], r: u32, corners: [u32; 3]) {
+        self.count += 1;
+        if self.count > SEEN_LIMIT {
+            self.coincident = true;
+            return;
+        }
+        // A hash that is the same in any order of the three corners.
+        const K: u64 = 0x9E37_79B9_7F4A_7C15;
+        let mix = |x: u32| (x as u64).wrapping_mul(K);
+        let mask = self.table.len() - 1;
+        let mut i = ((mix(corners[0]) ^ mix(corners[1]) ^ mix(corners[2])).wrapping_mul(K)
+            >> (64 - SEEN_BITS)) as usize;
+        loop {
+            let entry = self.table[i & mask];
+            if (entry >> 32) as u32 != self.stamp {
+                self.table[i & mask] = (self.stamp as u64) << 32 | r as u64;
+                return;
+            }
+            if key(records[entry as u32 as usize].corner) == key(corners) {
+                self.coincident = true;
+                return;
+            }
+            i += 1;
+        }
+    }
+}
+
+/// Writes a drawn triangle's corners to its slot and marks the slot's block dirty (`dirty` covers
+/// every slot: [`Front::draw`] grows it).
+#[inline(always)]
+fn write_slot(indices: &mut [[u32; 3]], dirty: &mut [u64], slot: u32, corners: [u32; 3]) {
+    indices[slot as usize] = corners;
+    let block = (slot / DIRTY_BLOCK) as usize;
+    dirty[block / 64] |= 1 << (block % 64);
 }
 
 #[inline]
@@ -105,8 +171,13 @@ pub struct Front {
     indices: Vec<[u32; 3]>,
     slot_record: Vec<u32>,
     dirty: Vec<u64>,
-    group: Vec<(u128, u32)>,
+    /// Scratch of an operation: the records that got new corners, those of them not drawn yet, the
+    /// degenerating ones, and the group with keys when coincident triangles are sorted out.
+    group: Vec<u32>,
+    pending: Vec<u32>,
     dying: Vec<u32>,
+    keyed: Vec<(u128, u32)>,
+    seen: Seen,
     /// When set, every operation is appended here (`u` for `vsplit(u)`, `!p` for `vunify(p)`), so
     /// that a run can be replayed without the view tests (benchmarks time the operations alone).
     pub log: Option<Vec<u32>>,
@@ -135,7 +206,10 @@ impl Clone for Front {
             slot_record: with_room(&self.slot_record),
             dirty: with_room(&self.dirty),
             group: with_room(&self.group),
+            pending: with_room(&self.pending),
             dying: with_room(&self.dying),
+            keyed: with_room(&self.keyed),
+            seen: self.seen.clone(),
             log: self.log.clone(),
             splits: self.splits,
             unifies: self.unifies,
@@ -161,7 +235,10 @@ impl Front {
             slot_record: Vec::new(),
             dirty: Vec::new(),
             group: Vec::new(),
+            pending: Vec::new(),
             dying: Vec::new(),
+            keyed: Vec::new(),
+            seen: Seen::new(),
             log: None,
             splits: 0,
             unifies: 0,
@@ -371,7 +448,9 @@ impl Front {
             + self.indices.capacity() * size_of::<[u32; 3]>()
             + self.slot_record.capacity() * 4
             + self.dirty.capacity() * 8
-            + self.group.capacity() * size_of::<(u128, u32)>()
+            + (self.group.capacity() + self.pending.capacity() + self.dying.capacity()) * 4
+            + self.keyed.capacity() * size_of::<(u128, u32)>()
+            + self.seen.table.capacity() * 8
     }
 
     fn activate(&mut self, u: u32) {
@@ -404,13 +483,6 @@ impl Front {
     #[inline]
     fn unlink(l: u32) -> (u32, usize) {
         (l >> 2, (l & 3) as usize)
-    }
-
-    #[inline]
-    fn push_around(&mut self, u: u32, r: u32, k: usize) {
-        let head = &mut self.head[u as usize];
-        self.records[r as usize].next[k] = *head;
-        *head = Self::link(r, k);
     }
 
     /// The active node standing for `leaf`, which lies outside the subtree of split node `u`, where
@@ -451,17 +523,17 @@ impl Front {
     fn outside_corner(
         &self,
         h: &Hierarchy,
-        group: &[(u128, u32)],
+        group: &[u32],
         children: [u32; 2],
         leaf: u32,
     ) -> Option<u32> {
-        let by_input = group.iter().find_map(|&(_, r)| {
+        let by_input = group.iter().find_map(|&r| {
             let rec = &self.records[r as usize];
             let j = rec.input.iter().position(|&x| x == leaf)?;
             Some(rec.corner[j])
         });
         by_input.or_else(|| {
-            group.iter().find_map(|&(_, r)| {
+            group.iter().find_map(|&r| {
                 self.records[r as usize].corner.into_iter().find(|&w| {
                     w != children[0] && w != children[1] && !h.is_leaf(w) && h.contains(w, leaf)
                 })
@@ -497,58 +569,74 @@ impl Front {
             self.can_split(h, u),
             "split of {u}, which is not an active internal node"
         );
-        let [c0, c1] = h.children(u);
+        let children = h.children(u);
         // Leaves below `mid` are the first child's (see `Internal`).
         let mid = h.internal[(u - h.leaf_count) as usize].mid;
-        let child_toward = |leaf: u32| if leaf < mid { c0 } else { c1 };
+        let side = |leaf: u32| (leaf >= mid) as usize;
         let mut l = self.deactivate(u, SPLIT);
-        self.activate(c0);
-        self.activate(c1);
+        self.activate(children[0]);
+        self.activate(children[1]);
+        // The children's lists, built here and stored at the end.
+        let mut heads = [NIL; 2];
         let mut group = std::mem::take(&mut self.group);
+        let mut pending = std::mem::take(&mut self.pending);
         group.clear();
-        // The triangles around u go to the child holding their input corner.
+        pending.clear();
+        self.seen.start();
+        // The triangles around u go to the child holding their input corner. Drawn ones are
+        // rewritten at once, while their record is at hand.
         while l != NIL {
             let (r, k) = Self::unlink(l);
             let rec = &mut self.records[r as usize];
             debug_assert_eq!(rec.corner[k], u);
             let next = rec.next[k];
-            if rec.slot == DEAD {
+            let slot = rec.slot;
+            if slot == DEAD {
                 self.free_records.push(r);
                 l = next;
                 continue;
             }
-            let c = child_toward(rec.input[k]);
-            rec.corner[k] = c;
+            let i = side(rec.input[k]);
+            rec.corner[k] = children[i];
+            rec.next[k] = heads[i];
+            heads[i] = Self::link(r, k);
             let corners = rec.corner;
-            self.push_around(c, r, k);
-            group.push((key(corners), r));
+            self.seen.add(&self.records, r, corners);
+            group.push(r);
+            if slot == HIDDEN {
+                pending.push(r);
+            } else {
+                write_slot(&mut self.indices, &mut self.dirty, slot, corners);
+            }
             l = next;
         }
-        // The triangles whose corners u kept together appear (corner 2 lies outside u's subtree).
+        // The triangles whose corners u kept together appear: corners 0 and 1 in different
+        // children, corner 2 outside u's subtree.
         for t in h.appearing(u) {
             let input = h.triangles[t as usize];
-            let corner = [
-                child_toward(input[0]),
-                child_toward(input[1]),
-                self.outside_corner(h, &group, [c0, c1], input[2])
-                    .unwrap_or_else(|| self.find_active_outside(h, u, input[2])),
-            ];
-            debug_assert_eq!(corner[2], self.representative(h, input[2]));
-            debug_assert!(
-                corner[0] != corner[1] && corner[1] != corner[2] && corner[0] != corner[2]
-            );
+            let i = side(input[0]);
+            debug_assert_eq!(side(input[1]), 1 - i);
+            let outside = self
+                .outside_corner(h, &group, children, input[2])
+                .unwrap_or_else(|| self.find_active_outside(h, u, input[2]));
+            debug_assert_eq!(outside, self.representative(h, input[2]));
+            let corner = [children[i], children[1 - i], outside];
             let r = self.new_record(Record {
                 corner,
-                next: [NIL; 3],
+                next: [heads[i], heads[1 - i], self.head[outside as usize]],
                 input,
                 slot: HIDDEN,
             });
-            for (k, &v) in corner.iter().enumerate() {
-                self.push_around(v, r, k);
-            }
-            group.push((key(corner), r));
+            heads[i] = Self::link(r, 0);
+            heads[1 - i] = Self::link(r, 1);
+            self.head[outside as usize] = Self::link(r, 2);
+            self.seen.add(&self.records, r, corner);
+            group.push(r);
+            pending.push(r);
         }
-        self.settle(group);
+        self.head[children[0] as usize] = heads[0];
+        self.head[children[1] as usize] = heads[1];
+        self.finish(group, pending);
         self.splits += 1;
         if let Some(log) = &mut self.log {
             log.push(u);
@@ -564,19 +652,23 @@ impl Front {
         let [c0, c1] = h.children(p);
         let heads = [self.deactivate(c0, BELOW), self.deactivate(c1, BELOW)];
         self.activate(p);
+        let mut head = NIL;
         let mut group = std::mem::take(&mut self.group);
+        let mut pending = std::mem::take(&mut self.pending);
         group.clear();
-        for (i, (c, other)) in [(c0, c1), (c1, c0)].into_iter().enumerate() {
-            let mut l = heads[i];
+        pending.clear();
+        self.seen.start();
+        for (l, other) in [(heads[0], c1), (heads[1], c0)] {
+            let mut l = l;
             while l != NIL {
                 let (r, k) = Self::unlink(l);
-                let rec = self.records[r as usize];
-                debug_assert_eq!(rec.corner[k], c);
+                let rec = &mut self.records[r as usize];
                 let next = rec.next[k];
-                if rec.slot == DEAD {
+                let slot = rec.slot;
+                if slot == DEAD {
                     // Degenerated in an earlier unify, and only this list still held it.
                     self.free_records.push(r);
-                } else if rec.slot == DYING {
+                } else if slot == DYING {
                     // Marked by the first child's walk.
                 } else if has_corner(rec.corner, other) {
                     // Both children were corners: the triangle degenerates. The third corner's list
@@ -585,58 +677,61 @@ impl Front {
                     self.records[r as usize].slot = DYING;
                     self.dying.push(r);
                 } else {
-                    self.records[r as usize].corner[k] = p;
-                    self.push_around(p, r, k);
-                    let mut corners = rec.corner;
-                    corners[k] = p;
-                    group.push((key(corners), r));
+                    rec.corner[k] = p;
+                    rec.next[k] = head;
+                    head = Self::link(r, k);
+                    let corners = rec.corner;
+                    self.seen.add(&self.records, r, corners);
+                    group.push(r);
+                    if slot == HIDDEN {
+                        pending.push(r);
+                    } else {
+                        write_slot(&mut self.indices, &mut self.dirty, slot, corners);
+                    }
                 }
                 l = next;
             }
         }
+        self.head[p as usize] = head;
         for r in self.dying.drain(..) {
             self.records[r as usize].slot = DEAD;
         }
-        self.settle(group);
+        self.finish(group, pending);
         self.unifies += 1;
         if let Some(log) = &mut self.log {
             log.push(!p);
         }
     }
 
-    /// After an operation: `group` holds every live triangle that got new corners, with its sorted
-    /// corners. Those are all the triangles around the operation's new nodes, so every triangle
-    /// coincident with one of them is in the group too. Of each set with the same corners one is
-    /// drawn (the one already drawn, if any, to keep slots still); its indices are rewritten.
-    fn settle(&mut self, mut group: Vec<(u128, u32)>) {
-        // Coincident triangles are rare: look for any before sorting. Each key sets a bit of a
-        // 256-bit filter; only a key whose bit is already set is compared with those before it.
-        let coincident = group.len() > SCAN_LIMIT || {
-            let mut seen = [0u64; 4];
-            group.iter().enumerate().any(|(i, a)| {
-                let b = filter_bit(a.0);
-                let (word, bit) = (b >> 6, 1u64 << (b & 63));
-                let maybe = seen[word] & bit != 0;
-                seen[word] |= bit;
-                maybe && group[..i].iter().any(|x| x.0 == a.0)
-            })
-        };
-        if !coincident {
-            for &(_, r) in &group {
+    /// The end of an operation: `group` holds every live triangle that got new corners (all the
+    /// triangles around the operation's new nodes, so every triangle coincident with one of them
+    /// is in it too), drawn ones already rewritten; `pending` those of them not drawn. Without a
+    /// coincidence they are all drawn; otherwise [`Front::settle`] picks one of each set.
+    fn finish(&mut self, group: Vec<u32>, pending: Vec<u32>) {
+        if self.seen.coincident {
+            self.settle(&group);
+        } else {
+            for &r in &pending {
                 self.draw(r);
             }
-            self.group = group;
-            return;
         }
-        group.sort_unstable();
-        let mut i = 0;
-        while i < group.len() {
-            let key = group[i].0;
-            let mut j = i + 1;
-            while j < group.len() && group[j].0 == key {
-                j += 1;
-            }
-            let run = &group[i..j];
+        self.group = group;
+        self.pending = pending;
+    }
+
+    /// Of each set of coincident triangles in `group` one is drawn (one already drawn, if any, to
+    /// keep slots still) and the others are released; the rest of the group is drawn.
+    #[cold]
+    fn settle(&mut self, group: &[u32]) {
+        let mut keyed = std::mem::take(&mut self.keyed);
+        keyed.clear();
+        keyed.extend(
+            group
+                .iter()
+                .map(|&r| (key(self.records[r as usize].corner), r)),
+        );
+        keyed.sort_unstable();
+        for run in keyed.chunk_by(|a, b| a.0 == b.0) {
             let keeper = run
                 .iter()
                 .find(|&&(_, r)| self.records[r as usize].slot != HIDDEN)
@@ -648,9 +743,8 @@ impl Front {
                 }
             }
             self.draw(keeper);
-            i = j;
         }
-        self.group = group;
+        self.keyed = keyed;
     }
 
     /// Gives record `r` a slot if it has none and writes its corners there.
@@ -666,9 +760,7 @@ impl Front {
                 self.dirty.resize(words, 0);
             }
         }
-        let s = rec.slot;
-        self.indices[s as usize] = rec.corner;
-        self.mark(s);
+        write_slot(&mut self.indices, &mut self.dirty, rec.slot, rec.corner);
     }
 
     /// Takes record `r` out of the drawn list (if it is there), moving the last drawn triangle into
