@@ -78,7 +78,7 @@ fn key([a, b, c]: [u32; 3]) -> u128 {
 #[derive(Clone)]
 struct Seen {
     /// `stamp << 32 | record`; an entry with another stamp is empty.
-    table: Vec<u64>,
+    table: Box<[u64; 1 << SEEN_BITS]>,
     stamp: u32,
     count: usize,
     /// A triangle with the same corners as an earlier one was added, or too many were.
@@ -94,7 +94,7 @@ const SEEN_LIMIT: usize = 1 << (SEEN_BITS - 2);
 impl Seen {
     fn new() -> Seen {
         Seen {
-            table: vec![0; 1 << SEEN_BITS],
+            table: Box::new([0; 1 << SEEN_BITS]),
             stamp: 0,
             count: 0,
             coincident: false,
@@ -143,11 +143,33 @@ impl Seen {
 
 /// Writes a drawn triangle's corners to its slot and marks the slot's block dirty (`dirty` covers
 /// every slot: [`Front::draw`] grows it).
+///
+/// # Safety
+/// `slot` must be a drawn record's slot: [`Front::draw`] hands out slots below `indices.len()`,
+/// and [`Front::release`] moves the last one into a freed slot before shrinking, so a drawn
+/// record's slot is always in range, and `dirty` always covers `indices`.
 #[inline(always)]
-fn write_slot(indices: &mut [[u32; 3]], dirty: &mut [u64], slot: u32, corners: [u32; 3]) {
-    indices[slot as usize] = corners;
+unsafe fn write_slot(indices: &mut [[u32; 3]], dirty: &mut [u64], slot: u32, corners: [u32; 3]) {
     let block = (slot / DIRTY_BLOCK) as usize;
-    dirty[block / 64] |= 1 << (block % 64);
+    debug_assert!((slot as usize) < indices.len() && block / 64 < dirty.len());
+    // SAFETY: the caller's promise.
+    unsafe {
+        *indices.get_unchecked_mut(slot as usize) = corners;
+        *dirty.get_unchecked_mut(block / 64) |= 1 << (block % 64);
+    }
+}
+
+/// `records[r]` without a bounds check, for the hot walks of [`Front::split`] and
+/// [`Front::unify`].
+///
+/// # Safety
+/// `r` must be a record id taken from a node's list: links are only ever made from ids
+/// `Front::new_record` returned, and records are recycled, never removed, so those are in range.
+#[inline(always)]
+unsafe fn record_mut(records: &mut [Record], r: u32) -> &mut Record {
+    debug_assert!((r as usize) < records.len());
+    // SAFETY: the caller's promise.
+    unsafe { records.get_unchecked_mut(r as usize) }
 }
 
 #[inline]
@@ -450,7 +472,7 @@ impl Front {
             + self.dirty.capacity() * 8
             + (self.group.capacity() + self.pending.capacity() + self.dying.capacity()) * 4
             + self.keyed.capacity() * size_of::<(u128, u32)>()
-            + self.seen.table.capacity() * 8
+            + size_of::<[u64; 1 << SEEN_BITS]>()
     }
 
     fn activate(&mut self, u: u32) {
@@ -587,7 +609,8 @@ impl Front {
         // rewritten at once, while their record is at hand.
         while l != NIL {
             let (r, k) = Self::unlink(l);
-            let rec = &mut self.records[r as usize];
+            // SAFETY: `r` comes from a list link, see `record_mut`.
+            let rec = unsafe { record_mut(&mut self.records, r) };
             debug_assert_eq!(rec.corner[k], u);
             let next = rec.next[k];
             let slot = rec.slot;
@@ -606,7 +629,8 @@ impl Front {
             if slot == HIDDEN {
                 pending.push(r);
             } else {
-                write_slot(&mut self.indices, &mut self.dirty, slot, corners);
+                // SAFETY: `slot` is the slot of a drawn record.
+                unsafe { write_slot(&mut self.indices, &mut self.dirty, slot, corners) };
             }
             l = next;
         }
@@ -662,7 +686,8 @@ impl Front {
             let mut l = l;
             while l != NIL {
                 let (r, k) = Self::unlink(l);
-                let rec = &mut self.records[r as usize];
+                // SAFETY: `r` comes from a list link, see `record_mut`.
+                let rec = unsafe { record_mut(&mut self.records, r) };
                 let next = rec.next[k];
                 let slot = rec.slot;
                 if slot == DEAD {
@@ -686,7 +711,8 @@ impl Front {
                     if slot == HIDDEN {
                         pending.push(r);
                     } else {
-                        write_slot(&mut self.indices, &mut self.dirty, slot, corners);
+                        // SAFETY: `slot` is the slot of a drawn record.
+                        unsafe { write_slot(&mut self.indices, &mut self.dirty, slot, corners) };
                     }
                 }
                 l = next;
@@ -760,7 +786,8 @@ impl Front {
                 self.dirty.resize(words, 0);
             }
         }
-        write_slot(&mut self.indices, &mut self.dirty, rec.slot, rec.corner);
+        // SAFETY: the record is drawn now.
+        unsafe { write_slot(&mut self.indices, &mut self.dirty, rec.slot, rec.corner) };
     }
 
     /// Takes record `r` out of the drawn list (if it is there), moving the last drawn triangle into
