@@ -93,7 +93,7 @@ fn main() {
     println!(
         "orbit frames: median {:.3} ms; in the loop {:.2} M ops/s",
         frame_ms[frame_ms.len() / 2],
-        (refiner.front.splits + refiner.front.unifies) as f64 / op_secs / 1e6
+        log.len() as f64 / op_secs / 1e6
     );
     println!(
         "{} ops x {rounds}: {:.2} M ops/s (best round {:.2}); sweep: split {:.2} M/s, unify {:.2} M/s",
