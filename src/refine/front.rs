@@ -80,7 +80,6 @@ struct Seen {
     /// `stamp << 32 | record`; an entry with another stamp is empty.
     table: Box<[u64; 1 << SEEN_BITS]>,
     stamp: u32,
-    count: usize,
     /// A triangle with the same corners as an earlier one was added, or too many were.
     coincident: bool,
 }
@@ -96,7 +95,6 @@ impl Seen {
         Seen {
             table: Box::new([0; 1 << SEEN_BITS]),
             stamp: 0,
-            count: 0,
             coincident: false,
         }
     }
@@ -108,15 +106,13 @@ impl Seen {
             self.table.fill(0);
             self.stamp = 1;
         }
-        self.count = 0;
         self.coincident = false;
     }
 
-    /// Adds record `r`, whose corners are now `corners`.
+    /// Adds record `r`, whose corners are now `corners`, after `added` others.
     #[inline(always)]
-    fn add(&mut self, records: &[Record], r: u32, corners: [u32; 3]) {
-        self.count += 1;
-        if self.count > SEEN_LIMIT {
+    fn add(&mut self, records: &[Record], r: u32, corners: [u32; 3], added: usize) {
+        if added >= SEEN_LIMIT {
             self.coincident = true;
             return;
         }
@@ -600,10 +596,8 @@ impl Front {
         self.activate(children[1]);
         // The children's lists, built here and stored at the end.
         let mut heads = [NIL; 2];
-        let mut group = std::mem::take(&mut self.group);
-        let mut pending = std::mem::take(&mut self.pending);
-        group.clear();
-        pending.clear();
+        self.group.clear();
+        self.pending.clear();
         self.seen.start();
         // The triangles around u go to the child holding their input corner. Drawn ones are
         // rewritten at once, while their record is at hand.
@@ -624,10 +618,10 @@ impl Front {
             rec.next[k] = heads[i];
             heads[i] = Self::link(r, k);
             let corners = rec.corner;
-            self.seen.add(&self.records, r, corners);
-            group.push(r);
+            self.seen.add(&self.records, r, corners, self.group.len());
+            self.group.push(r);
             if slot == HIDDEN {
-                pending.push(r);
+                self.pending.push(r);
             } else {
                 // SAFETY: `slot` is the slot of a drawn record.
                 unsafe { write_slot(&mut self.indices, &mut self.dirty, slot, corners) };
@@ -641,7 +635,7 @@ impl Front {
             let i = side(input[0]);
             debug_assert_eq!(side(input[1]), 1 - i);
             let outside = self
-                .outside_corner(h, &group, children, input[2])
+                .outside_corner(h, &self.group, children, input[2])
                 .unwrap_or_else(|| self.find_active_outside(h, u, input[2]));
             debug_assert_eq!(outside, self.representative(h, input[2]));
             let corner = [children[i], children[1 - i], outside];
@@ -654,13 +648,13 @@ impl Front {
             heads[i] = Self::link(r, 0);
             heads[1 - i] = Self::link(r, 1);
             self.head[outside as usize] = Self::link(r, 2);
-            self.seen.add(&self.records, r, corner);
-            group.push(r);
-            pending.push(r);
+            self.seen.add(&self.records, r, corner, self.group.len());
+            self.group.push(r);
+            self.pending.push(r);
         }
         self.head[children[0] as usize] = heads[0];
         self.head[children[1] as usize] = heads[1];
-        self.finish(group, pending);
+        self.finish();
         self.splits += 1;
         if let Some(log) = &mut self.log {
             log.push(u);
@@ -677,11 +671,10 @@ impl Front {
         let heads = [self.deactivate(c0, BELOW), self.deactivate(c1, BELOW)];
         self.activate(p);
         let mut head = NIL;
-        let mut group = std::mem::take(&mut self.group);
-        let mut pending = std::mem::take(&mut self.pending);
-        group.clear();
-        pending.clear();
+        self.group.clear();
+        self.pending.clear();
         self.seen.start();
+        let mut added = 0;
         for (l, other) in [(heads[0], c1), (heads[1], c0)] {
             let mut l = l;
             while l != NIL {
@@ -706,10 +699,10 @@ impl Front {
                     rec.next[k] = head;
                     head = Self::link(r, k);
                     let corners = rec.corner;
-                    self.seen.add(&self.records, r, corners);
-                    group.push(r);
+                    self.seen.add(&self.records, r, corners, added);
+                    added += 1;
                     if slot == HIDDEN {
-                        pending.push(r);
+                        self.pending.push(r);
                     } else {
                         // SAFETY: `slot` is the slot of a drawn record.
                         unsafe { write_slot(&mut self.indices, &mut self.dirty, slot, corners) };
@@ -722,7 +715,16 @@ impl Front {
         for r in self.dying.drain(..) {
             self.records[r as usize].slot = DEAD;
         }
-        self.finish(group, pending);
+        if self.seen.coincident {
+            // The group is p's list.
+            let mut l = head;
+            while l != NIL {
+                let (r, k) = Self::unlink(l);
+                self.group.push(r);
+                l = self.records[r as usize].next[k];
+            }
+        }
+        self.finish();
         self.unifies += 1;
         if let Some(log) = &mut self.log {
             log.push(!p);
@@ -731,18 +733,20 @@ impl Front {
 
     /// The end of an operation: `group` holds every live triangle that got new corners (all the
     /// triangles around the operation's new nodes, so every triangle coincident with one of them
-    /// is in it too), drawn ones already rewritten; `pending` those of them not drawn. Without a
+    /// is in it too; a unify collects it only when needed), drawn ones already rewritten;
+    /// `pending` those of them not drawn. Without a
     /// coincidence they are all drawn; otherwise [`Front::settle`] picks one of each set.
-    fn finish(&mut self, group: Vec<u32>, pending: Vec<u32>) {
+    fn finish(&mut self) {
         if self.seen.coincident {
+            let group = std::mem::take(&mut self.group);
             self.settle(&group);
+            self.group = group;
         } else {
-            for &r in &pending {
+            for i in 0..self.pending.len() {
+                let r = self.pending[i];
                 self.draw(r);
             }
         }
-        self.group = group;
-        self.pending = pending;
     }
 
     /// Of each set of coincident triangles in `group` one is drawn (one already drawn, if any, to
