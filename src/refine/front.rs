@@ -155,12 +155,23 @@ unsafe fn write_slot(indices: &mut [[u32; 3]], dirty: &mut [u64], slot: u32, cor
     }
 }
 
-/// `records[r]` without a bounds check, for the hot walks of [`Front::split`] and
+/// `records[r]` without a bounds check, for the hot loops of [`Front::split`] and
 /// [`Front::unify`].
 ///
 /// # Safety
 /// `r` must be a record id taken from a node's list: links are only ever made from ids
 /// `Front::new_record` returned, and records are recycled, never removed, so those are in range.
+#[inline(always)]
+unsafe fn record(records: &[Record], r: u32) -> &Record {
+    debug_assert!((r as usize) < records.len());
+    // SAFETY: the caller's promise.
+    unsafe { records.get_unchecked(r as usize) }
+}
+
+/// The same, for writing.
+///
+/// # Safety
+/// As for [`record`].
 #[inline(always)]
 unsafe fn record_mut(records: &mut [Record], r: u32) -> &mut Record {
     debug_assert!((r as usize) < records.len());
@@ -495,6 +506,7 @@ impl Front {
     #[inline]
     fn link(r: u32, k: usize) -> u32 {
         debug_assert!(r < 1 << 30, "more than 2^30 live triangles");
+        debug_assert!(k < 3);
         r << 2 | k as u32
     }
 
@@ -546,13 +558,16 @@ impl Front {
         leaf: u32,
     ) -> Option<u32> {
         let by_input = group.iter().find_map(|&r| {
-            let rec = &self.records[r as usize];
+            // SAFETY: the group holds ids taken from the operation's lists, see `record`.
+            let rec = unsafe { record(&self.records, r) };
             let j = rec.input.iter().position(|&x| x == leaf)?;
             Some(rec.corner[j])
         });
         by_input.or_else(|| {
             group.iter().find_map(|&r| {
-                self.records[r as usize].corner.into_iter().find(|&w| {
+                // SAFETY: as above.
+                let rec = unsafe { record(&self.records, r) };
+                rec.corner.into_iter().find(|&w| {
                     w != children[0] && w != children[1] && !h.is_leaf(w) && h.contains(w, leaf)
                 })
             })
@@ -603,7 +618,9 @@ impl Front {
         // rewritten at once, while their record is at hand.
         while l != NIL {
             let (r, k) = Self::unlink(l);
-            // SAFETY: `r` comes from a list link, see `record_mut`.
+            // SAFETY: `l` is a link `Front::link` made (not `NIL`), whose corner is below 3.
+            unsafe { std::hint::assert_unchecked(k < 3) };
+            // SAFETY: `r` comes from a list link, see `record`.
             let rec = unsafe { record_mut(&mut self.records, r) };
             debug_assert_eq!(rec.corner[k], u);
             let next = rec.next[k];
@@ -679,7 +696,9 @@ impl Front {
             let mut l = l;
             while l != NIL {
                 let (r, k) = Self::unlink(l);
-                // SAFETY: `r` comes from a list link, see `record_mut`.
+                // SAFETY: `l` is a link `Front::link` made (not `NIL`), whose corner is below 3.
+                unsafe { std::hint::assert_unchecked(k < 3) };
+                // SAFETY: `r` comes from a list link, see `record`.
                 let rec = unsafe { record_mut(&mut self.records, r) };
                 let next = rec.next[k];
                 let slot = rec.slot;
