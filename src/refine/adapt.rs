@@ -152,8 +152,8 @@ pub struct FrameStats {
     /// Time spent adapting, in seconds.
     pub refine_secs: f64,
     /// Of that, time spent inside the splits and unifies themselves (what the operations cost in
-    /// the loop, with the look-ahead's prefetching; each is timed by [`ticks`], which adds a
-    /// counter read).
+    /// the loop, with the look-ahead's prefetching; each is timed by the time-stamp counter, which
+    /// adds a counter read).
     pub operation_secs: f64,
     /// τ used this frame (varies in budget mode).
     pub tolerance_px: f32,
