@@ -656,6 +656,7 @@ impl Front {
                 .unwrap_or_else(|| self.find_active_outside(h, u, input[2]));
             debug_assert_eq!(outside, self.representative(h, input[2]));
             let corner = [children[i], children[1 - i], outside];
+            debug_assert!(outside != children[0] && outside != children[1]);
             let r = self.new_record(Record {
                 corner,
                 next: [heads[i], heads[1 - i], self.head[outside as usize]],
@@ -692,7 +693,7 @@ impl Front {
         self.pending.clear();
         self.seen.start();
         let mut added = 0;
-        for (l, other) in [(heads[0], c1), (heads[1], c0)] {
+        for (l, c, other) in [(heads[0], c0, c1), (heads[1], c1, c0)] {
             let mut l = l;
             while l != NIL {
                 let (r, k) = Self::unlink(l);
@@ -700,6 +701,7 @@ impl Front {
                 unsafe { std::hint::assert_unchecked(k < 3) };
                 // SAFETY: `r` comes from a list link, see `record`.
                 let rec = unsafe { record_mut(&mut self.records, r) };
+                debug_assert_eq!(rec.corner[k], c);
                 let next = rec.next[k];
                 let slot = rec.slot;
                 if slot == DEAD {
