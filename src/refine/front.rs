@@ -755,8 +755,8 @@ impl Front {
     /// The end of an operation: `group` holds every live triangle that got new corners (all the
     /// triangles around the operation's new nodes, so every triangle coincident with one of them
     /// is in it too; a unify collects it only when needed), drawn ones already rewritten;
-    /// `pending` those of them not drawn. Without a
-    /// coincidence they are all drawn; otherwise [`Front::settle`] picks one of each set.
+    /// `pending` those of them not drawn. Without a coincidence they are all drawn; otherwise
+    /// [`Front::settle`] picks one of each set.
     fn finish(&mut self) {
         if self.seen.coincident {
             let group = std::mem::take(&mut self.group);
@@ -826,20 +826,14 @@ impl Front {
         let last = self.indices.len() as u32 - 1;
         if s != last {
             let moved = self.slot_record[last as usize];
-            self.indices[s as usize] = self.indices[last as usize];
+            let corners = self.indices[last as usize];
+            // SAFETY: `s` was the released record's drawn slot.
+            unsafe { write_slot(&mut self.indices, &mut self.dirty, s, corners) };
             self.slot_record[s as usize] = moved;
             self.records[moved as usize].slot = s;
-            self.mark(s);
         }
         self.indices.pop();
         self.slot_record.pop();
-    }
-
-    /// Marks a slot's block dirty (`dirty` covers every slot: [`Front::draw`] grows it).
-    #[inline]
-    fn mark(&mut self, slot: u32) {
-        let block = (slot / DIRTY_BLOCK) as usize;
-        self.dirty[block / 64] |= 1 << (block % 64);
     }
 
     /// Applies a [`Front::log`] recorded from the same starting front.
