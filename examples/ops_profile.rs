@@ -1,8 +1,14 @@
 //! Profiling aid: the dragon's orbit at 1920x1080, τ = 1 px, recorded and replayed many times, so that
 //! `perf` sees the operations alone. `cargo run --release --example ops_profile -- TREE.vtree`
 //! (default `/tmp/dragon.vtree`). Prints the time of the deviation bounds and the hierarchy, then the
-//! replayed operations per second (mean and best of `ROUNDS`, default 40) and a whole-tree sweep;
-//! `SWEEPS=N` runs N whole-tree sweeps instead. Compare two builds by alternating their binaries.
+//! orbit's median frame time and operations per second in the loop (median of `LOOPS` orbits from
+//! the same start, default 1), the replayed operations per second (mean and best of `ROUNDS`,
+//! default 40) and a whole-tree sweep. Compare two builds by alternating their binaries.
+//!
+//! Other modes: `SWEEPS=N` runs N whole-tree sweeps instead; `WINDOW=N` replays windows of N
+//! operations forwards and back twenty times each, so that their data stays in cache (what an
+//! operation costs without misses); `FRAMES=N ORBIT_ONLY=1` stops after an orbit of N frames (for a
+//! cache simulator: the difference between 600 frames and 2 is the orbit's operations in the loop).
 use glam::Vec3;
 use std::time::Instant;
 use vunify::refine::{Camera, Front, Hierarchy, Refiner, Settings};
@@ -41,7 +47,11 @@ fn main() {
     let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
     let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
     let (c, r) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
-    let cameras: Vec<Camera> = (0..600)
+    let frames: usize = std::env::var("FRAMES")
+        .ok()
+        .and_then(|f| f.parse().ok())
+        .unwrap_or(600);
+    let cameras: Vec<Camera> = (0..frames)
         .map(|i| {
             let a = i as f32 / 600.0 * std::f32::consts::TAU;
             let eye = c + Vec3::new(a.cos(), 0.35, a.sin()) * r * 2.5;
@@ -69,7 +79,31 @@ fn main() {
             stats.refine_secs * 1e3
         })
         .collect();
+    let ops = refiner.front.splits + refiner.front.unifies - start.splits - start.unifies;
+    // More orbits from the same start, to take the median of noisy runs.
+    let mut in_loop = vec![ops as f64 / op_secs / 1e6];
+    let loops: usize = std::env::var("LOOPS")
+        .ok()
+        .and_then(|l| l.parse().ok())
+        .unwrap_or(1);
+    for _ in 1..loops {
+        let mut again = Refiner::starting_from(start.clone(), Settings::default());
+        let mut secs = 0.0;
+        for cam in &cameras[1..] {
+            let stats = again.update(&h, cam);
+            secs += stats.operation_secs;
+            frame_ms.push(stats.refine_secs * 1e3);
+        }
+        let ops = again.front.splits + again.front.unifies - start.splits - start.unifies;
+        in_loop.push(ops as f64 / secs / 1e6);
+    }
+    in_loop.sort_by(f64::total_cmp);
+    let in_loop = in_loop[in_loop.len() / 2];
     frame_ms.sort_by(f64::total_cmp);
+    if std::env::var("ORBIT_ONLY").is_ok() {
+        println!("{} ops", refiner.front.log.as_ref().unwrap().len());
+        return;
+    }
     let log = refiner.front.log.take().unwrap();
     let rounds: usize = std::env::var("ROUNDS")
         .ok()
@@ -84,6 +118,38 @@ fn main() {
         secs += dt;
         best = best.min(dt);
     }
+    if let Ok(w) = std::env::var("WINDOW") {
+        let w: usize = w.parse().unwrap();
+        let mut f = start.clone();
+        let mut pos = 0;
+        let mut results = Vec::new();
+        while pos + w <= log.len() {
+            let fwd = &log[pos..pos + w];
+            // Unifies undo splits and the reverse: the front is back where it was after each pair.
+            let back: Vec<u32> = fwd.iter().rev().map(|&o| !o).collect();
+            f.replay(&h, fwd);
+            f.replay(&h, &back);
+            let t0 = Instant::now();
+            for _ in 0..20 {
+                f.replay(&h, fwd);
+                f.replay(&h, &back);
+            }
+            results.push((40 * w) as f64 / t0.elapsed().as_secs_f64() / 1e6);
+            // On to a window further down the log.
+            let next = (pos + w * 7).min(log.len());
+            f.replay(&h, &log[pos..next]);
+            pos = next;
+        }
+        results.sort_by(f64::total_cmp);
+        println!(
+            "window {w}: in-cache M ops/s median {:.2} min {:.2} max {:.2} ({} windows)",
+            results[results.len() / 2],
+            results[0],
+            results[results.len() - 1],
+            results.len()
+        );
+        return;
+    }
     let mut f = Front::new(&h);
     let t0 = Instant::now();
     f.refine_all(&h);
@@ -93,7 +159,7 @@ fn main() {
     println!(
         "orbit frames: median {:.3} ms; in the loop {:.2} M ops/s",
         frame_ms[frame_ms.len() / 2],
-        log.len() as f64 / op_secs / 1e6
+        in_loop
     );
     println!(
         "{} ops x {rounds}: {:.2} M ops/s (best round {:.2}); sweep: split {:.2} M/s, unify {:.2} M/s",

@@ -376,10 +376,10 @@ impl Refiner {
             let d = self.ahead[(self.cursor + ahead) % RING];
             if d.node == v {
                 if d.split {
-                    self.front.prefetch_lists(&[v], hop);
+                    self.front.prefetch_lists(h, &[v], hop, true);
                 } else if d.unify_parent == Some(true) {
                     self.front
-                        .prefetch_lists(&h.children(h.parent[v as usize]), hop);
+                        .prefetch_lists(h, &h.children(h.parent[v as usize]), hop, false);
                 }
             }
         }

@@ -137,21 +137,75 @@ impl Seen {
     }
 }
 
-/// Writes a drawn triangle's corners to its slot and marks the slot's block dirty (`dirty` covers
-/// every slot: [`Front::draw`] grows it).
-///
-/// # Safety
-/// `slot` must be a drawn record's slot: [`Front::draw`] hands out slots below `indices.len()`,
-/// and [`Front::release`] moves the last one into a freed slot before shrinking, so a drawn
-/// record's slot is always in range, and `dirty` always covers `indices`.
-#[inline(always)]
-unsafe fn write_slot(indices: &mut [[u32; 3]], dirty: &mut [u64], slot: u32, corners: [u32; 3]) {
-    let block = (slot / DIRTY_BLOCK) as usize;
-    debug_assert!((slot as usize) < indices.len() && block / 64 < dirty.len());
-    // SAFETY: the caller's promise.
-    unsafe {
-        *indices.get_unchecked_mut(slot as usize) = corners;
-        *dirty.get_unchecked_mut(block / 64) |= 1 << (block % 64);
+/// The drawn triangles: their corners packed for the renderer, the record behind each slot, and
+/// one dirty bit for each block of `DIRTY_BLOCK` slots.
+#[derive(Clone, Default)]
+struct Drawn {
+    indices: Vec<[u32; 3]>,
+    slot_record: Vec<u32>,
+    /// Covers every slot: [`Drawn::push`] grows it.
+    dirty: Vec<u64>,
+}
+
+impl Drawn {
+    /// Writes a drawn triangle's corners to its slot and marks the slot's block dirty.
+    ///
+    /// # Safety
+    /// `slot` must be a drawn record's slot: [`Drawn::push`] hands out slots below
+    /// `indices.len()`, and [`Drawn::release`] moves the last one into a freed slot before
+    /// shrinking, so a drawn record's slot is always in range, and `dirty` always covers `indices`.
+    #[inline(always)]
+    unsafe fn write(&mut self, slot: u32, corners: [u32; 3]) {
+        let block = (slot / DIRTY_BLOCK) as usize;
+        debug_assert!((slot as usize) < self.indices.len() && block / 64 < self.dirty.len());
+        // SAFETY: the caller's promise.
+        unsafe {
+            *self.indices.get_unchecked_mut(slot as usize) = corners;
+            *self.dirty.get_unchecked_mut(block / 64) |= 1 << (block % 64);
+        }
+    }
+
+    /// A new slot at the end, for record `r`.
+    #[inline(always)]
+    fn push(&mut self, r: u32) -> u32 {
+        let slot = self.indices.len() as u32;
+        self.indices.push([0; 3]);
+        self.slot_record.push(r);
+        if (slot / (DIRTY_BLOCK * 64)) as usize >= self.dirty.len() {
+            self.dirty.push(0);
+        }
+        slot
+    }
+
+    /// Gives `rec` (record `r`) a slot if it has none and writes its corners there.
+    #[inline(always)]
+    fn draw(&mut self, rec: &mut Record, r: u32) {
+        if rec.slot == HIDDEN {
+            rec.slot = self.push(r);
+        }
+        // SAFETY: the record is drawn now.
+        unsafe { self.write(rec.slot, rec.corner) };
+    }
+
+    /// Takes record `r` out of the drawn list (if it is there), moving the last drawn triangle into
+    /// its slot.
+    fn release(&mut self, records: &mut [Record], r: u32) {
+        let s = records[r as usize].slot;
+        if s >= DYING {
+            return;
+        }
+        records[r as usize].slot = HIDDEN;
+        let last = self.indices.len() as u32 - 1;
+        if s != last {
+            let moved = self.slot_record[last as usize];
+            let corners = self.indices[last as usize];
+            // SAFETY: `s` was the released record's drawn slot.
+            unsafe { self.write(s, corners) };
+            self.slot_record[s as usize] = moved;
+            records[moved as usize].slot = s;
+        }
+        self.indices.pop();
+        self.slot_record.pop();
     }
 }
 
@@ -179,6 +233,52 @@ unsafe fn record_mut(records: &mut [Record], r: u32) -> &mut Record {
     unsafe { records.get_unchecked_mut(r as usize) }
 }
 
+/// The corner after corner `k`, around a triangle.
+const NEXT: [usize; 3] = [1, 2, 0];
+
+/// The active nodes around a split and the leaves under each: the outside corner of a triangle
+/// that appears is the one holding its third input corner. Seven times in ten no triangle around
+/// the node has that leaf for an input corner, and the node's leaf range must be read; reading the
+/// ranges as the walk meets the corners lets those loads overlap with the walk instead of
+/// queueing after it (and the look-ahead asks for them early, see [`Front::prefetch_lists`]).
+/// Scratch of the front, so that no split has to clear it.
+#[derive(Clone)]
+struct Candidates {
+    /// `(lo, hi, node)`: the node's leaves are `lo..hi`.
+    ranges: Box<[(u32, u32, u32); CANDIDATES]>,
+    len: usize,
+}
+
+/// At most this many candidates are kept (two a triangle around the split node); past that,
+/// [`Front::outside_corner`] searches the group.
+const CANDIDATES: usize = 48;
+
+impl Candidates {
+    fn new() -> Candidates {
+        Candidates {
+            ranges: Box::new([(0, 0, 0); CANDIDATES]),
+            len: 0,
+        }
+    }
+
+    #[inline(always)]
+    fn add(&mut self, h: &Hierarchy, w: u32) {
+        if self.len < CANDIDATES {
+            self.ranges[self.len] = h.leaf_range(w);
+            self.len += 1;
+        }
+    }
+
+    /// The candidate holding `leaf`.
+    #[inline(always)]
+    fn holding(&self, leaf: u32) -> Option<u32> {
+        self.ranges[..self.len]
+            .iter()
+            .find(|&&(lo, hi, _)| lo <= leaf && leaf < hi)
+            .map(|&(_, _, w)| w)
+    }
+}
+
 #[inline]
 fn has_corner(c: [u32; 3], u: u32) -> bool {
     (c[0] == u) | (c[1] == u) | (c[2] == u)
@@ -196,10 +296,8 @@ pub struct Front {
     active_count: usize,
     records: Vec<Record>,
     free_records: Vec<u32>,
-    /// Drawn triangles as node ids, packed, and the record behind each.
-    indices: Vec<[u32; 3]>,
-    slot_record: Vec<u32>,
-    dirty: Vec<u64>,
+    /// Drawn triangles as node ids, packed.
+    drawn: Drawn,
     /// Scratch of an operation: the records that got new corners, those of them not drawn yet, the
     /// degenerating ones, and the group with keys when coincident triangles are sorted out.
     group: Vec<u32>,
@@ -207,6 +305,7 @@ pub struct Front {
     dying: Vec<u32>,
     keyed: Vec<(u128, u32)>,
     seen: Seen,
+    candidates: Candidates,
     /// When set, every operation is appended here (`u` for `vsplit(u)`, `!p` for `vunify(p)`), so
     /// that a run can be replayed without the view tests (benchmarks time the operations alone).
     pub log: Option<Vec<u32>>,
@@ -231,14 +330,17 @@ impl Clone for Front {
             active_count: self.active_count,
             records: with_room(&self.records),
             free_records: with_room(&self.free_records),
-            indices: with_room(&self.indices),
-            slot_record: with_room(&self.slot_record),
-            dirty: with_room(&self.dirty),
+            drawn: Drawn {
+                indices: with_room(&self.drawn.indices),
+                slot_record: with_room(&self.drawn.slot_record),
+                dirty: with_room(&self.drawn.dirty),
+            },
             group: with_room(&self.group),
             pending: with_room(&self.pending),
             dying: with_room(&self.dying),
             keyed: with_room(&self.keyed),
             seen: self.seen.clone(),
+            candidates: self.candidates.clone(),
             log: self.log.clone(),
             splits: self.splits,
             unifies: self.unifies,
@@ -260,14 +362,13 @@ impl Front {
             active_count: 1,
             records: Vec::new(),
             free_records: Vec::new(),
-            indices: Vec::new(),
-            slot_record: Vec::new(),
-            dirty: Vec::new(),
+            drawn: Drawn::default(),
             group: Vec::new(),
             pending: Vec::new(),
             dying: Vec::new(),
             keyed: Vec::new(),
             seen: Seen::new(),
+            candidates: Candidates::new(),
             log: None,
             splits: 0,
             unifies: 0,
@@ -347,18 +448,19 @@ impl Front {
 
     /// The drawn triangles, as node ids (vertex indices into the node arrays).
     pub fn indices(&self) -> &[[u32; 3]] {
-        &self.indices
+        &self.drawn.indices
     }
 
     /// The input triangle (leaf corners) behind each drawn one.
     pub fn drawn_input_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
-        self.slot_record
+        self.drawn
+            .slot_record
             .iter()
             .map(|&r| self.records[r as usize].input)
     }
 
     pub fn triangle_count(&self) -> usize {
-        self.indices.len()
+        self.drawn.indices.len()
     }
 
     /// Can `u` split: active and not a leaf?
@@ -383,6 +485,12 @@ impl Front {
         if let Some(t) = h.triangles.get(h.appearing(u).start as usize) {
             crate::prefetch(t);
         }
+        // The records the appearing triangles will take.
+        for &r in self.free_records.iter().rev().take(2) {
+            let rec = &self.records[r as usize];
+            crate::prefetch(&rec.corner);
+            crate::prefetch(&rec.slot);
+        }
     }
 
     /// A hint for the memory system, some visits before `unify(p)`: the states and list heads of
@@ -398,7 +506,7 @@ impl Front {
     /// The later stages of [`Front::prefetch_split`] and [`Front::prefetch_unify`]: record `hop`
     /// (0 for the first) of the list around each active one of `nodes`, reached through the
     /// records that earlier stages asked for.
-    pub fn prefetch_lists(&self, nodes: &[u32], hop: usize) {
+    pub fn prefetch_lists(&self, h: &Hierarchy, nodes: &[u32], hop: usize, split: bool) {
         for &v in nodes {
             if !self.is_active(v) {
                 continue;
@@ -412,9 +520,22 @@ impl Front {
                 let (r, k) = Self::unlink(l);
                 let rec = &self.records[r as usize];
                 (l, last) = (rec.next[k], Some(rec.slot));
+                if split {
+                    // The record's other corners are candidates for the appearing triangles'
+                    // outside corners (see `Candidates`): the split reads their leaf ranges, and
+                    // the list head of the one that is.
+                    for w in rec.corner {
+                        if w != v {
+                            crate::prefetch(&self.head[w as usize]);
+                            if !h.is_leaf(w) {
+                                crate::prefetch(&h.internal[(w - h.leaf_count) as usize]);
+                            }
+                        }
+                    }
+                }
             }
             // The drawn triangle of the record the last stage asked for: the operation rewrites it.
-            if let Some(drawn) = last.and_then(|s| self.indices.get(s as usize)) {
+            if let Some(drawn) = last.and_then(|s| self.drawn.indices.get(s as usize)) {
                 crate::prefetch(drawn);
             }
             if l != NIL {
@@ -445,9 +566,9 @@ impl Front {
     /// Slot ranges of [`Front::indices`] written since the last call, merged, clipped to the current
     /// length; clears the record.
     pub fn take_dirty(&mut self) -> Vec<std::ops::Range<u32>> {
-        let len = self.indices.len() as u32;
+        let len = self.drawn.indices.len() as u32;
         let mut out: Vec<std::ops::Range<u32>> = Vec::new();
-        for (w, bits) in self.dirty.iter_mut().enumerate() {
+        for (w, bits) in self.drawn.dirty.iter_mut().enumerate() {
             let mut b = std::mem::take(bits);
             while b != 0 {
                 let i = b.trailing_zeros();
@@ -474,12 +595,13 @@ impl Front {
             + self.list.capacity() * 4
             + self.records.capacity() * size_of::<Record>()
             + self.free_records.capacity() * 4
-            + self.indices.capacity() * size_of::<[u32; 3]>()
-            + self.slot_record.capacity() * 4
-            + self.dirty.capacity() * 8
+            + self.drawn.indices.capacity() * size_of::<[u32; 3]>()
+            + self.drawn.slot_record.capacity() * 4
+            + self.drawn.dirty.capacity() * 8
             + (self.group.capacity() + self.pending.capacity() + self.dying.capacity()) * 4
             + self.keyed.capacity() * size_of::<(u128, u32)>()
             + size_of::<[u64; 1 << SEEN_BITS]>()
+            + size_of::<[(u32, u32, u32); CANDIDATES]>()
     }
 
     fn activate(&mut self, u: u32) {
@@ -614,6 +736,9 @@ impl Front {
         self.group.clear();
         self.pending.clear();
         self.seen.start();
+        // The other corners of the triangles around u, with their leaf ranges: the appearing
+        // triangles' outside corners are among them (see `Candidates`).
+        self.candidates.len = 0;
         // The triangles around u go to the child holding their input corner. Drawn ones are
         // rewritten at once, while their record is at hand.
         while l != NIL {
@@ -630,6 +755,8 @@ impl Front {
                 l = next;
                 continue;
             }
+            self.candidates.add(h, rec.corner[NEXT[k]]);
+            self.candidates.add(h, rec.corner[NEXT[NEXT[k]]]);
             let i = side(rec.input[k]);
             rec.corner[k] = children[i];
             rec.next[k] = heads[i];
@@ -641,7 +768,7 @@ impl Front {
                 self.pending.push(r);
             } else {
                 // SAFETY: `slot` is the slot of a drawn record.
-                unsafe { write_slot(&mut self.indices, &mut self.dirty, slot, corners) };
+                unsafe { self.drawn.write(slot, corners) };
             }
             l = next;
         }
@@ -652,7 +779,9 @@ impl Front {
             let i = side(input[0]);
             debug_assert_eq!(side(input[1]), 1 - i);
             let outside = self
-                .outside_corner(h, &self.group, children, input[2])
+                .candidates
+                .holding(input[2])
+                .or_else(|| self.outside_corner(h, &self.group, children, input[2]))
                 .unwrap_or_else(|| self.find_active_outside(h, u, input[2]));
             debug_assert_eq!(outside, self.representative(h, input[2]));
             let corner = [children[i], children[1 - i], outside];
@@ -712,7 +841,7 @@ impl Front {
                 } else if has_corner(rec.corner, other) {
                     // Both children were corners: the triangle degenerates. The third corner's list
                     // keeps it until that list is next walked.
-                    self.release(r);
+                    self.drawn.release(&mut self.records, r);
                     self.records[r as usize].slot = DYING;
                     self.dying.push(r);
                 } else {
@@ -720,14 +849,13 @@ impl Front {
                     rec.next[k] = head;
                     head = Self::link(r, k);
                     let corners = rec.corner;
-                    self.seen.add(&self.records, r, corners, added);
-                    added += 1;
                     if slot == HIDDEN {
                         self.pending.push(r);
                     } else {
-                        // SAFETY: `slot` is the slot of a drawn record.
-                        unsafe { write_slot(&mut self.indices, &mut self.dirty, slot, corners) };
+                        unsafe { self.drawn.write(slot, corners) };
                     }
+                    self.seen.add(&self.records, r, corners, added);
+                    added += 1;
                 }
                 l = next;
             }
@@ -765,7 +893,7 @@ impl Front {
         } else {
             for i in 0..self.pending.len() {
                 let r = self.pending[i];
-                self.draw(r);
+                self.drawn.draw(&mut self.records[r as usize], r);
             }
         }
     }
@@ -790,50 +918,12 @@ impl Front {
                 .1;
             for &(_, r) in run {
                 if r != keeper {
-                    self.release(r);
+                    self.drawn.release(&mut self.records, r);
                 }
             }
-            self.draw(keeper);
+            self.drawn.draw(&mut self.records[keeper as usize], keeper);
         }
         self.keyed = keyed;
-    }
-
-    /// Gives record `r` a slot if it has none and writes its corners there.
-    #[inline(always)]
-    fn draw(&mut self, r: u32) {
-        let rec = &mut self.records[r as usize];
-        if rec.slot == HIDDEN {
-            rec.slot = self.indices.len() as u32;
-            self.indices.push([0; 3]);
-            self.slot_record.push(r);
-            let words = (self.indices.len() as u32).div_ceil(DIRTY_BLOCK * 64) as usize;
-            if self.dirty.len() < words {
-                self.dirty.resize(words, 0);
-            }
-        }
-        // SAFETY: the record is drawn now.
-        unsafe { write_slot(&mut self.indices, &mut self.dirty, rec.slot, rec.corner) };
-    }
-
-    /// Takes record `r` out of the drawn list (if it is there), moving the last drawn triangle into
-    /// its slot.
-    fn release(&mut self, r: u32) {
-        let s = self.records[r as usize].slot;
-        if s >= DYING {
-            return;
-        }
-        self.records[r as usize].slot = HIDDEN;
-        let last = self.indices.len() as u32 - 1;
-        if s != last {
-            let moved = self.slot_record[last as usize];
-            let corners = self.indices[last as usize];
-            // SAFETY: `s` was the released record's drawn slot.
-            unsafe { write_slot(&mut self.indices, &mut self.dirty, s, corners) };
-            self.slot_record[s as usize] = moved;
-            self.records[moved as usize].slot = s;
-        }
-        self.indices.pop();
-        self.slot_record.pop();
     }
 
     /// Applies a [`Front::log`] recorded from the same starting front.

@@ -315,6 +315,17 @@ impl Hierarchy {
         [first, second]
     }
 
+    /// `(lo, hi, u)`: node `u`'s leaves are `lo..hi`.
+    #[inline]
+    pub fn leaf_range(&self, u: u32) -> (u32, u32, u32) {
+        if u < self.leaf_count {
+            (u, u + 1, u)
+        } else {
+            let Internal { lo, hi, .. } = self.internal[(u - self.leaf_count) as usize];
+            (lo, hi, u)
+        }
+    }
+
     /// Does internal node `u`'s subtree hold `leaf`?
     #[inline]
     pub fn contains(&self, u: u32, leaf: u32) -> bool {
