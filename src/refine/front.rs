@@ -116,11 +116,11 @@ impl Seen {
             self.coincident = true;
             return;
         }
-        // A hash that is the same in any order of the three corners.
+        // A hash that is the same in any order of the three corners (equal ones for different
+        // corner sets cost a comparison of keys).
         const K: u64 = 0x9E37_79B9_7F4A_7C15;
-        let mix = |x: u32| (x as u64).wrapping_mul(K);
         let mask = self.table.len() - 1;
-        let mut i = ((mix(corners[0]) ^ mix(corners[1]) ^ mix(corners[2])).wrapping_mul(K)
+        let mut i = (((corners[0] ^ corners[1] ^ corners[2]) as u64).wrapping_mul(K)
             >> (64 - SEEN_BITS)) as usize;
         loop {
             let entry = self.table[i & mask];
@@ -249,7 +249,7 @@ struct Candidates {
     len: usize,
 }
 
-/// At most this many candidates are kept (two a triangle around the split node); past that,
+/// At most this many candidates are kept (one a triangle around the split node); past that,
 /// [`Front::outside_corner`] searches the group.
 const CANDIDATES: usize = 48;
 
@@ -755,8 +755,9 @@ impl Front {
                 l = next;
                 continue;
             }
+            // Around a manifold vertex each neighbour follows u in one triangle (elsewhere the
+            // search below finds the ones missed).
             self.candidates.add(h, rec.corner[NEXT[k]]);
-            self.candidates.add(h, rec.corner[NEXT[NEXT[k]]]);
             let i = side(rec.input[k]);
             rec.corner[k] = children[i];
             rec.next[k] = heads[i];
