@@ -733,9 +733,9 @@ impl Front {
         self.activate(children[1]);
         // The children's lists, built here and stored at the end.
         let mut heads = [NIL; 2];
-        self.group.clear();
         self.pending.clear();
         self.seen.start();
+        let mut added = 0;
         // The other corners of the triangles around u, with their leaf ranges: the appearing
         // triangles' outside corners are among them (see `Candidates`).
         self.candidates.len = 0;
@@ -763,8 +763,8 @@ impl Front {
             rec.next[k] = heads[i];
             heads[i] = Self::link(r, k);
             let corners = rec.corner;
-            self.seen.add(&self.records, r, corners, self.group.len());
-            self.group.push(r);
+            self.seen.add(&self.records, r, corners, added);
+            added += 1;
             if slot == HIDDEN {
                 self.pending.push(r);
             } else {
@@ -779,11 +779,14 @@ impl Front {
             let input = h.triangles[t as usize];
             let i = side(input[0]);
             debug_assert_eq!(side(input[1]), 1 - i);
-            let outside = self
-                .candidates
-                .holding(input[2])
-                .or_else(|| self.outside_corner(h, &self.group, children, input[2]))
-                .unwrap_or_else(|| self.find_active_outside(h, u, input[2]));
+            let outside = match self.candidates.holding(input[2]) {
+                Some(w) => w,
+                None => {
+                    self.collect_group(&heads);
+                    self.outside_corner(h, &self.group, children, input[2])
+                        .unwrap_or_else(|| self.find_active_outside(h, u, input[2]))
+                }
+            };
             debug_assert_eq!(outside, self.representative(h, input[2]));
             let corner = [children[i], children[1 - i], outside];
             debug_assert!(outside != children[0] && outside != children[1]);
@@ -796,13 +799,13 @@ impl Front {
             heads[i] = Self::link(r, 0);
             heads[1 - i] = Self::link(r, 1);
             self.head[outside as usize] = Self::link(r, 2);
-            self.seen.add(&self.records, r, corner, self.group.len());
-            self.group.push(r);
+            self.seen.add(&self.records, r, corner, added);
+            added += 1;
             self.pending.push(r);
         }
         self.head[children[0] as usize] = heads[0];
         self.head[children[1] as usize] = heads[1];
-        self.finish();
+        self.finish(&heads);
         self.splits += 1;
         if let Some(log) = &mut self.log {
             log.push(u);
@@ -819,7 +822,6 @@ impl Front {
         let heads = [self.deactivate(c0, BELOW), self.deactivate(c1, BELOW)];
         self.activate(p);
         let mut head = NIL;
-        self.group.clear();
         self.pending.clear();
         self.seen.start();
         let mut added = 0;
@@ -865,29 +867,38 @@ impl Front {
         for r in self.dying.drain(..) {
             self.records[r as usize].slot = DEAD;
         }
-        if self.seen.coincident {
-            // The group is p's list.
-            let mut l = head;
-            while l != NIL {
-                let (r, k) = Self::unlink(l);
-                self.group.push(r);
-                l = self.records[r as usize].next[k];
-            }
-        }
-        self.finish();
+        self.finish(&[head]);
         self.unifies += 1;
         if let Some(log) = &mut self.log {
             log.push(!p);
         }
     }
 
-    /// The end of an operation: `group` holds every live triangle that got new corners (all the
-    /// triangles around the operation's new nodes, so every triangle coincident with one of them
-    /// is in it too; a unify collects it only when needed), drawn ones already rewritten;
-    /// `pending` those of them not drawn. Without a coincidence they are all drawn; otherwise
-    /// [`Front::settle`] picks one of each set.
-    fn finish(&mut self) {
+    /// The records in `lists` (each a list head), once each, into `group`: an operation's group,
+    /// collected only when it is needed.
+    #[cold]
+    fn collect_group(&mut self, lists: &[u32]) {
+        self.group.clear();
+        for &l in lists {
+            let mut l = l;
+            while l != NIL {
+                let (r, k) = Self::unlink(l);
+                self.group.push(r);
+                l = self.records[r as usize].next[k];
+            }
+        }
+        // An appearing triangle is in both children's lists.
+        self.group.sort_unstable();
+        self.group.dedup();
+    }
+
+    /// The end of an operation whose new nodes head `lists`. The triangles in them are every live
+    /// triangle that got new corners (so every triangle coincident with one of them is there
+    /// too), drawn ones already rewritten; `pending` holds those of them not drawn. Without a
+    /// coincidence they are all drawn; otherwise [`Front::settle`] picks one of each set.
+    fn finish(&mut self, lists: &[u32]) {
         if self.seen.coincident {
+            self.collect_group(lists);
             let group = std::mem::take(&mut self.group);
             self.settle(&group);
             self.group = group;
