@@ -303,6 +303,8 @@ pub struct Front {
     group: Vec<u32>,
     pending: Vec<u32>,
     dying: Vec<u32>,
+    /// Nodes whose lists hold `DEAD` records, for [`Front::clean`].
+    unclean: Vec<u32>,
     keyed: Vec<(u128, u32)>,
     seen: Seen,
     candidates: Candidates,
@@ -338,6 +340,7 @@ impl Clone for Front {
             group: with_room(&self.group),
             pending: with_room(&self.pending),
             dying: with_room(&self.dying),
+            unclean: with_room(&self.unclean),
             keyed: with_room(&self.keyed),
             seen: self.seen.clone(),
             candidates: self.candidates.clone(),
@@ -366,6 +369,7 @@ impl Front {
             group: Vec::new(),
             pending: Vec::new(),
             dying: Vec::new(),
+            unclean: Vec::new(),
             keyed: Vec::new(),
             seen: Seen::new(),
             candidates: Candidates::new(),
@@ -598,7 +602,11 @@ impl Front {
             + self.drawn.indices.capacity() * size_of::<[u32; 3]>()
             + self.drawn.slot_record.capacity() * 4
             + self.drawn.dirty.capacity() * 8
-            + (self.group.capacity() + self.pending.capacity() + self.dying.capacity()) * 4
+            + (self.group.capacity()
+                + self.pending.capacity()
+                + self.dying.capacity()
+                + self.unclean.capacity())
+                * 4
             + self.keyed.capacity() * size_of::<(u128, u32)>()
             + size_of::<[u64; 1 << SEEN_BITS]>()
             + size_of::<[(u32, u32, u32); CANDIDATES]>()
@@ -865,7 +873,11 @@ impl Front {
         }
         self.head[p as usize] = head;
         for r in self.dying.drain(..) {
-            self.records[r as usize].slot = DEAD;
+            let rec = &mut self.records[r as usize];
+            rec.slot = DEAD;
+            // The third corner's list still holds it.
+            let third = rec.corner[0] ^ rec.corner[1] ^ rec.corner[2] ^ c0 ^ c1;
+            self.unclean.push(third);
         }
         self.finish(&[head]);
         self.unifies += 1;
@@ -936,6 +948,40 @@ impl Front {
             self.drawn.draw(&mut self.records[keeper as usize], keeper);
         }
         self.keyed = keyed;
+    }
+
+    /// Frees the records of triangles that degenerated since the last call, which an operation
+    /// leaves in their third corner's list (finding them there would cost a walk of that list).
+    /// Without this they wait until the list is next walked, and the records array grows in
+    /// the meantime, into memory that has to be mapped (~20 µs a page here). The runtime calls it
+    /// once a frame; it walks one list per degenerated triangle.
+    pub fn clean(&mut self) {
+        let mut unclean = std::mem::take(&mut self.unclean);
+        for &w in &unclean {
+            if !self.is_active(w) {
+                // Its list was walked when it left the front, which freed them.
+                continue;
+            }
+            // The link that points at the current record: the head, or a record's `next`.
+            let mut at: Option<(u32, usize)> = None;
+            let mut l = self.head[w as usize];
+            while l != NIL {
+                let (r, k) = Self::unlink(l);
+                let next = self.records[r as usize].next[k];
+                if self.records[r as usize].slot == DEAD {
+                    match at {
+                        None => self.head[w as usize] = next,
+                        Some((q, j)) => self.records[q as usize].next[j] = next,
+                    }
+                    self.free_records.push(r);
+                } else {
+                    at = Some((r, k));
+                }
+                l = next;
+            }
+        }
+        unclean.clear();
+        self.unclean = unclean;
     }
 
     /// Applies a [`Front::log`] recorded from the same starting front.
