@@ -45,6 +45,10 @@ const DEAD: u32 = u32::MAX - 1;
 /// `slot` of a record degenerating in the unify under way: in both children's lists, freed by neither.
 const DYING: u32 = u32::MAX - 2;
 
+/// At most this many lists wait for [`Front::clean`] (a frame of the dragon's orbit leaves about
+/// fifty; sweeps and replays that never clean stop here).
+const UNCLEAN_LIMIT: usize = 4096;
+
 /// Dirty tracking granularity, in triangles: one bit per 64 triangles (768 bytes of indices).
 const DIRTY_BLOCK: u32 = 64;
 
@@ -875,9 +879,12 @@ impl Front {
         for r in self.dying.drain(..) {
             let rec = &mut self.records[r as usize];
             rec.slot = DEAD;
-            // The third corner's list still holds it.
-            let third = rec.corner[0] ^ rec.corner[1] ^ rec.corner[2] ^ c0 ^ c1;
-            self.unclean.push(third);
+            // The third corner's list still holds it (past `UNCLEAN_LIMIT` it waits there for
+            // the list's next walk, as it would without `Front::clean`).
+            if self.unclean.len() < UNCLEAN_LIMIT {
+                let third = rec.corner[0] ^ rec.corner[1] ^ rec.corner[2] ^ c0 ^ c1;
+                self.unclean.push(third);
+            }
         }
         self.finish(&[head]);
         self.unifies += 1;
