@@ -529,16 +529,13 @@ impl Front {
                 let rec = &self.records[r as usize];
                 (l, last) = (rec.next[k], Some(rec.slot));
                 if split {
-                    // The record's other corners are candidates for the appearing triangles'
-                    // outside corners (see `Candidates`): the split reads their leaf ranges, and
-                    // the list head of the one that is.
-                    for w in rec.corner {
-                        if w != v {
-                            crate::prefetch(&self.head[w as usize]);
-                            if !h.is_leaf(w) {
-                                crate::prefetch(&h.internal[(w - h.leaf_count) as usize]);
-                            }
-                        }
+                    // The corner after v is a candidate for the appearing triangles' outside
+                    // corners (see `Candidates`): the split reads its leaf range, and the list
+                    // head of the one that is.
+                    let w = rec.corner[NEXT[k]];
+                    crate::prefetch(&self.head[w as usize]);
+                    if !h.is_leaf(w) {
+                        crate::prefetch(&h.internal[(w - h.leaf_count) as usize]);
                     }
                 }
             }
