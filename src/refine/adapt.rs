@@ -320,7 +320,6 @@ impl Refiner {
                 self.cursor += 1;
             }
         }
-        self.front.clean();
         FrameStats {
             active_vertices: self.front.active_count() as u32,
             triangles: self.front.triangle_count() as u32,

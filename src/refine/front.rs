@@ -38,16 +38,9 @@ const LISTED: u8 = 0x80;
 
 /// `slot` of a live triangle that is not drawn: another live triangle has the same corners.
 const HIDDEN: u32 = u32::MAX;
-/// `slot` of a record whose triangle degenerated in a unify. It stays in the list of its third corner
-/// until that list is next walked, which drops it and frees it: cheaper than searching the list for
-/// it at once.
-const DEAD: u32 = u32::MAX - 1;
-/// `slot` of a record degenerating in the unify under way: in both children's lists, freed by neither.
-const DYING: u32 = u32::MAX - 2;
-
-/// At most this many lists wait for [`Front::clean`] (a frame of the dragon's orbit leaves about
-/// fifty; sweeps and replays that never clean stop here).
-const UNCLEAN_LIMIT: usize = 4096;
+/// `slot` of a record degenerating in the unify under way: in both children's lists, taken out of
+/// its third corner's list and freed once both have been walked.
+const DYING: u32 = u32::MAX - 1;
 
 /// Dirty tracking granularity, in triangles: one bit per 64 triangles (768 bytes of indices).
 const DIRTY_BLOCK: u32 = 64;
@@ -61,7 +54,7 @@ struct Record {
     next: [u32; 3],
     /// Its input corners (leaves), kept here because every operation on the triangle reads them.
     input: [u32; 3],
-    /// Its draw slot, or `HIDDEN`, `DYING`, `DEAD`.
+    /// Its draw slot, or `HIDDEN`, `DYING`.
     slot: u32,
 }
 
@@ -307,8 +300,6 @@ pub struct Front {
     group: Vec<u32>,
     pending: Vec<u32>,
     dying: Vec<u32>,
-    /// Nodes whose lists hold `DEAD` records, for [`Front::clean`].
-    unclean: Vec<u32>,
     keyed: Vec<(u128, u32)>,
     seen: Seen,
     candidates: Candidates,
@@ -344,7 +335,6 @@ impl Clone for Front {
             group: with_room(&self.group),
             pending: with_room(&self.pending),
             dying: with_room(&self.dying),
-            unclean: with_room(&self.unclean),
             keyed: with_room(&self.keyed),
             seen: self.seen.clone(),
             candidates: self.candidates.clone(),
@@ -373,7 +363,6 @@ impl Front {
             group: Vec::new(),
             pending: Vec::new(),
             dying: Vec::new(),
-            unclean: Vec::new(),
             keyed: Vec::new(),
             seen: Seen::new(),
             candidates: Candidates::new(),
@@ -515,19 +504,25 @@ impl Front {
     /// (0 for the first) of the list around each active one of `nodes`, reached through the
     /// records that earlier stages asked for.
     pub fn prefetch_lists(&self, h: &Hierarchy, nodes: &[u32], hop: usize, split: bool) {
-        for &v in nodes {
+        for (i, &v) in nodes.iter().enumerate() {
             if !self.is_active(v) {
                 continue;
             }
             let mut l = self.head[v as usize];
             let mut last = None;
-            for _ in 0..hop {
+            for at in 0..hop {
                 if l == NIL {
                     break;
                 }
                 let (r, k) = Self::unlink(l);
                 let rec = &self.records[r as usize];
                 (l, last) = (rec.next[k], Some(rec.slot));
+                if !split && i == 0 && has_corner(rec.corner, nodes[1]) {
+                    // It degenerates in the unify, which takes it out of its third corner's list:
+                    // that list follows this one, some stages behind.
+                    let third = rec.corner[0] ^ rec.corner[1] ^ rec.corner[2] ^ v ^ nodes[1];
+                    self.prefetch_chain(third, hop - at - 1);
+                }
                 if split {
                     // The corner after v is a candidate for the appearing triangles' outside
                     // corners (see `Candidates`): the split reads its leaf range, and the list
@@ -549,6 +544,29 @@ impl Front {
                 crate::prefetch(&rec.corner);
                 crate::prefetch(&rec.slot);
             }
+        }
+    }
+
+    /// Record `hop` of the list around `w`, or its head for `hop` 0 (what [`Front::unlink_from`]
+    /// walks).
+    fn prefetch_chain(&self, w: u32, hop: usize) {
+        let Some(&head) = self.head.get(w as usize) else {
+            return;
+        };
+        if hop == 0 {
+            crate::prefetch(&self.head[w as usize]);
+            return;
+        }
+        let mut l = head;
+        for _ in 1..hop {
+            if l == NIL {
+                return;
+            }
+            let (r, k) = Self::unlink(l);
+            l = self.records[r as usize].next[k];
+        }
+        if l != NIL {
+            crate::prefetch(&self.records[Self::unlink(l).0 as usize].next);
         }
     }
 
@@ -603,11 +621,7 @@ impl Front {
             + self.drawn.indices.capacity() * size_of::<[u32; 3]>()
             + self.drawn.slot_record.capacity() * 4
             + self.drawn.dirty.capacity() * 8
-            + (self.group.capacity()
-                + self.pending.capacity()
-                + self.dying.capacity()
-                + self.unclean.capacity())
-                * 4
+            + (self.group.capacity() + self.pending.capacity() + self.dying.capacity()) * 4
             + self.keyed.capacity() * size_of::<(u128, u32)>()
             + size_of::<[u64; 1 << SEEN_BITS]>()
             + size_of::<[(u32, u32, u32); CANDIDATES]>()
@@ -759,11 +773,6 @@ impl Front {
             debug_assert_eq!(rec.corner[k], u);
             let next = rec.next[k];
             let slot = rec.slot;
-            if slot == DEAD {
-                self.free_records.push(r);
-                l = next;
-                continue;
-            }
             // Around a manifold vertex each neighbour follows u in one triangle (elsewhere the
             // search below finds the ones missed).
             self.candidates.add(h, rec.corner[NEXT[k]]);
@@ -845,14 +854,10 @@ impl Front {
                 debug_assert_eq!(rec.corner[k], c);
                 let next = rec.next[k];
                 let slot = rec.slot;
-                if slot == DEAD {
-                    // Degenerated in an earlier unify, and only this list still held it.
-                    self.free_records.push(r);
-                } else if slot == DYING {
+                if slot == DYING {
                     // Marked by the first child's walk.
                 } else if has_corner(rec.corner, other) {
-                    // Both children were corners: the triangle degenerates. The third corner's list
-                    // keeps it until that list is next walked.
+                    // Both children were corners: the triangle degenerates.
                     self.drawn.release(&mut self.records, r);
                     self.records[r as usize].slot = DYING;
                     self.dying.push(r);
@@ -873,16 +878,15 @@ impl Front {
             }
         }
         self.head[p as usize] = head;
-        for r in self.dying.drain(..) {
-            let rec = &mut self.records[r as usize];
-            rec.slot = DEAD;
-            // The third corner's list still holds it (past `UNCLEAN_LIMIT` it waits there for
-            // the list's next walk, as it would without `Front::clean`).
-            if self.unclean.len() < UNCLEAN_LIMIT {
-                let third = rec.corner[0] ^ rec.corner[1] ^ rec.corner[2] ^ c0 ^ c1;
-                self.unclean.push(third);
-            }
+        // The degenerated triangles leave their third corner's list (which the look-ahead asked
+        // for, see `Front::prefetch_lists`) and free their records.
+        for i in 0..self.dying.len() {
+            let r = self.dying[i];
+            let c = self.records[r as usize].corner;
+            self.unlink_from(c[0] ^ c[1] ^ c[2] ^ c0 ^ c1, r);
+            self.free_records.push(r);
         }
+        self.dying.clear();
         self.finish(&[head]);
         self.unifies += 1;
         if let Some(log) = &mut self.log {
@@ -954,38 +958,25 @@ impl Front {
         self.keyed = keyed;
     }
 
-    /// Frees the records of triangles that degenerated since the last call, which an operation
-    /// leaves in their third corner's list (finding them there would cost a walk of that list).
-    /// Without this they wait until the list is next walked, and the records array grows in
-    /// the meantime, into memory that has to be mapped (~20 µs a page here). The runtime calls it
-    /// once a frame; it walks one list per degenerated triangle.
-    pub fn clean(&mut self) {
-        let mut unclean = std::mem::take(&mut self.unclean);
-        for &w in &unclean {
-            if !self.is_active(w) {
-                // Its list was walked when it left the front, which freed them.
-                continue;
-            }
-            // The link that points at the current record: the head, or a record's `next`.
-            let mut at: Option<(u32, usize)> = None;
-            let mut l = self.head[w as usize];
-            while l != NIL {
-                let (r, k) = Self::unlink(l);
-                let next = self.records[r as usize].next[k];
-                if self.records[r as usize].slot == DEAD {
-                    match at {
-                        None => self.head[w as usize] = next,
-                        Some((q, j)) => self.records[q as usize].next[j] = next,
-                    }
-                    self.free_records.push(r);
-                } else {
-                    at = Some((r, k));
+    /// Takes record `r` out of active node `w`'s list.
+    fn unlink_from(&mut self, w: u32, r: u32) {
+        // The link that points at the current record: the head, or a record's `next`.
+        let mut at: Option<(u32, usize)> = None;
+        let mut l = self.head[w as usize];
+        while l != NIL {
+            let (q, k) = Self::unlink(l);
+            let next = self.records[q as usize].next[k];
+            if q == r {
+                match at {
+                    None => self.head[w as usize] = next,
+                    Some((q, j)) => self.records[q as usize].next[j] = next,
                 }
-                l = next;
+                return;
             }
+            at = Some((q, k));
+            l = next;
         }
-        unclean.clear();
-        self.unclean = unclean;
+        debug_assert!(false, "record {r} is not in the list of node {w}");
     }
 
     /// Applies a [`Front::log`] recorded from the same starting front.
