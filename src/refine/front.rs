@@ -68,10 +68,10 @@ fn key([a, b, c]: [u32; 3]) -> u128 {
     (lo.min(mid) as u128) << 64 | (lo.max(mid) as u128) << 32 | top as u128
 }
 
-/// The corner sets of the operation under way, to find coincident triangles among those that got
-/// new corners (about two dozen an operation): an open-addressed hash table of record ids, each
-/// entry stamped with the operation it belongs to, so that no operation has to clear it. An
-/// operation sorts its group by [`key`] only when this finds a coincidence (4 % of them).
+/// The corner sets of a unify under way, to find coincident triangles among those that got new
+/// corners (about a dozen): an open-addressed hash table of record ids, each entry stamped with
+/// the operation it belongs to, so that no operation has to clear it. A unify sorts its group by
+/// [`key`] only when this finds a coincidence.
 #[derive(Clone)]
 struct Seen {
     /// `stamp << 32 | record`; an entry with another stamp is empty.
@@ -757,8 +757,8 @@ impl Front {
         // The children's lists, built here and stored at the end.
         let mut heads = [NIL; 2];
         self.pending.clear();
-        self.seen.start();
-        let mut added = 0;
+        // Whether two live triangles may now have the same corners (see `Front::finish`).
+        let mut coincident = false;
         // The other corners of the triangles around u, with their leaf ranges: the appearing
         // triangles' outside corners are among them (see `Candidates`).
         self.candidates.len = 0;
@@ -781,9 +781,9 @@ impl Front {
             rec.next[k] = heads[i];
             heads[i] = Self::link(r, k);
             let corners = rec.corner;
-            self.seen.add(&self.records, r, corners, added);
-            added += 1;
             if slot == HIDDEN {
+                // It had the same corners as another triangle around u, which may have gone to
+                // the other child (looked at below).
                 self.pending.push(r);
             } else {
                 // SAFETY: `slot` is the slot of a drawn record.
@@ -791,9 +791,18 @@ impl Front {
             }
             l = next;
         }
+        // A hidden triangle is drawn unless another one with its corners went to the same child.
+        for i in 0..self.pending.len() {
+            let corners = self.records[self.pending[i] as usize].corner;
+            let child = has_corner(corners, children[1]) as usize;
+            coincident |= self.has_coincident(heads[child], self.pending[i]);
+        }
         // The triangles whose corners u kept together appear: corners 0 and 1 in different
-        // children, corner 2 outside u's subtree.
-        for t in h.appearing(u) {
+        // children, corner 2 outside u's subtree. Two of them coincide when they have the same
+        // outside corner; none coincides with another triangle, which has at most one of the
+        // children for a corner.
+        let mut outsides = [NIL; 8];
+        for (n, t) in h.appearing(u).enumerate() {
             let input = h.triangles[t as usize];
             let i = side(input[0]);
             debug_assert_eq!(side(input[1]), 1 - i);
@@ -808,6 +817,10 @@ impl Front {
             debug_assert_eq!(outside, self.representative(h, input[2]));
             let corner = [children[i], children[1 - i], outside];
             debug_assert!(outside != children[0] && outside != children[1]);
+            match outsides.get_mut(n) {
+                Some(slot) => *slot = outside,
+                None => coincident = true,
+            }
             let r = self.new_record(Record {
                 corner,
                 next: [heads[i], heads[1 - i], self.head[outside as usize]],
@@ -817,13 +830,13 @@ impl Front {
             heads[i] = Self::link(r, 0);
             heads[1 - i] = Self::link(r, 1);
             self.head[outside as usize] = Self::link(r, 2);
-            self.seen.add(&self.records, r, corner, added);
-            added += 1;
             self.pending.push(r);
         }
+        let appeared = h.appearing(u).len().min(outsides.len());
+        coincident |= (1..appeared).any(|n| outsides[..n].contains(&outsides[n]));
         self.head[children[0] as usize] = heads[0];
         self.head[children[1] as usize] = heads[1];
-        self.finish(&heads);
+        self.finish(&heads, coincident);
         self.splits += 1;
         if let Some(log) = &mut self.log {
             log.push(u);
@@ -869,6 +882,7 @@ impl Front {
                     if slot == HIDDEN {
                         self.pending.push(r);
                     } else {
+                        // SAFETY: `slot` is the slot of a drawn record.
                         unsafe { self.drawn.write(slot, corners) };
                     }
                     self.seen.add(&self.records, r, corners, added);
@@ -887,11 +901,25 @@ impl Front {
             self.free_records.push(r);
         }
         self.dying.clear();
-        self.finish(&[head]);
+        self.finish(&[head], self.seen.coincident);
         self.unifies += 1;
         if let Some(log) = &mut self.log {
             log.push(!p);
         }
+    }
+
+    /// Whether the list from link `l` holds a record other than `r` with `r`'s corners.
+    fn has_coincident(&self, mut l: u32, r: u32) -> bool {
+        let corners = key(self.records[r as usize].corner);
+        while l != NIL {
+            let (q, k) = Self::unlink(l);
+            let rec = &self.records[q as usize];
+            if q != r && key(rec.corner) == corners {
+                return true;
+            }
+            l = rec.next[k];
+        }
+        false
     }
 
     /// The records in `lists` (each a list head), once each, into `group`: an operation's group,
@@ -914,10 +942,12 @@ impl Front {
 
     /// The end of an operation whose new nodes head `lists`. The triangles in them are every live
     /// triangle that got new corners (so every triangle coincident with one of them is there
-    /// too), drawn ones already rewritten; `pending` holds those of them not drawn. Without a
-    /// coincidence they are all drawn; otherwise [`Front::settle`] picks one of each set.
-    fn finish(&mut self, lists: &[u32]) {
-        if self.seen.coincident {
+    /// too), drawn ones already rewritten; `pending` holds those of them to draw (a split's
+    /// appearing triangles and hidden ones that no longer coincide with another). Unless the
+    /// operation found that two of them may now coincide (4 % of operations), they are drawn;
+    /// otherwise [`Front::settle`] picks one of each set.
+    fn finish(&mut self, lists: &[u32], coincident: bool) {
+        if coincident {
             self.collect_group(lists);
             let group = std::mem::take(&mut self.group);
             self.settle(&group);
@@ -926,6 +956,27 @@ impl Front {
             for i in 0..self.pending.len() {
                 let r = self.pending[i];
                 self.drawn.draw(&mut self.records[r as usize], r);
+            }
+        }
+        #[cfg(debug_assertions)]
+        {
+            // Exactly one triangle of each set of coincident ones is drawn.
+            self.collect_group(lists);
+            let mut keyed: Vec<(u128, bool)> = (self.group.iter())
+                .map(|&r| {
+                    let rec = &self.records[r as usize];
+                    (key(rec.corner), rec.slot != HIDDEN)
+                })
+                .collect();
+            keyed.sort_unstable();
+            for run in keyed.chunk_by(|a, b| a.0 == b.0) {
+                let drawn = run.iter().filter(|x| x.1).count();
+                assert_eq!(
+                    drawn,
+                    1,
+                    "{} coincident triangles, {drawn} drawn",
+                    run.len()
+                );
             }
         }
     }
