@@ -896,7 +896,8 @@ impl Front {
         // for, see `Front::prefetch_lists`) and free their records.
         for i in 0..self.dying.len() {
             let r = self.dying[i];
-            let c = self.records[r as usize].corner;
+            // SAFETY: `r` comes from a list link, see `record`.
+            let c = unsafe { record(&self.records, r) }.corner;
             self.unlink_from(c[0] ^ c[1] ^ c[2] ^ c0 ^ c1, r);
             self.free_records.push(r);
         }
@@ -1016,11 +1017,16 @@ impl Front {
         let mut l = self.head[w as usize];
         while l != NIL {
             let (q, k) = Self::unlink(l);
-            let next = self.records[q as usize].next[k];
+            // SAFETY: `l` is a link `Front::link` made (not `NIL`), whose corner is below 3, and
+            // `q` comes from it, see `record`.
+            unsafe { std::hint::assert_unchecked(k < 3) };
+            // SAFETY: as above.
+            let next = unsafe { record(&self.records, q) }.next[k];
             if q == r {
                 match at {
                     None => self.head[w as usize] = next,
-                    Some((q, j)) => self.records[q as usize].next[j] = next,
+                    // SAFETY: as above.
+                    Some((q, j)) => unsafe { record_mut(&mut self.records, q) }.next[j] = next,
                 }
                 return;
             }
