@@ -25,8 +25,9 @@ pub(crate) fn prefetch<T>(x: &T) {
     prefetch_address(x as *const T as usize);
 }
 
+/// [`prefetch`] of an address (which need not be valid: a prefetch never faults).
 #[inline(always)]
-fn prefetch_address(address: usize) {
+pub(crate) fn prefetch_address(address: usize) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: prefetching is a hint with no architectural effect; any address is allowed.
     unsafe {

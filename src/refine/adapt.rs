@@ -375,6 +375,9 @@ impl Refiner {
             let Some(v) = at(ahead) else { continue };
             let d = self.ahead[(self.cursor + ahead) % RING];
             if d.node == v {
+                if hop == RECORDS_AHEAD.len() - 1 && (d.split || d.unify_parent == Some(true)) {
+                    self.front.prefetch_scratch();
+                }
                 if d.split {
                     self.front.prefetch_lists(h, &[v], hop, true);
                 } else if d.unify_parent == Some(true) {

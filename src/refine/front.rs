@@ -547,6 +547,28 @@ impl Front {
         }
     }
 
+    /// A hint for the memory system, a few visits before an operation: the ends of the arrays
+    /// every operation reads or writes (the drawn triangles' last slot, the free records' top, the
+    /// scratch lists), which the visits between two operations evict.
+    pub fn prefetch_scratch(&self) {
+        if let Some(last) = self.drawn.indices.last() {
+            crate::prefetch(last);
+        }
+        if let Some(last) = self.drawn.slot_record.last() {
+            crate::prefetch(last);
+        }
+        for bits in self.drawn.dirty.iter().step_by(8) {
+            crate::prefetch(bits);
+        }
+        if let Some(top) = self.free_records.last() {
+            crate::prefetch(top);
+        }
+        crate::prefetch_address(self.pending.as_ptr() as usize);
+        crate::prefetch_address(self.dying.as_ptr() as usize);
+        crate::prefetch(&self.candidates.ranges[0]);
+        crate::prefetch(&self.candidates.ranges[5]);
+    }
+
     /// Record `hop` of the list around `w`, or its head for `hop` 0 (what [`Front::unlink_from`]
     /// walks).
     fn prefetch_chain(&self, w: u32, hop: usize) {
