@@ -81,6 +81,8 @@ struct Seen {
     coincident: bool,
 }
 
+/// The multiplier of [`Seen`]'s hash.
+const SEEN_HASH: u64 = 0x9E37_79B9_7F4A_7C15;
 /// log2 of [`Seen`]'s table size.
 const SEEN_BITS: u32 = 10;
 /// Past this many triangles in one operation (high-valence nodes of coarse fronts), [`Seen`] gives
@@ -106,6 +108,12 @@ impl Seen {
         self.coincident = false;
     }
 
+    /// The first entry looked at for a triangle whose corners' exclusive or is `x`.
+    #[inline(always)]
+    fn slot(&self, x: u32) -> &u64 {
+        &self.table[((x as u64).wrapping_mul(SEEN_HASH) >> (64 - SEEN_BITS)) as usize]
+    }
+
     /// Adds record `r`, whose corners are now `corners`, after `added` others.
     #[inline(always)]
     fn add(&mut self, records: &[Record], r: u32, corners: [u32; 3], added: usize) {
@@ -115,9 +123,8 @@ impl Seen {
         }
         // A hash that is the same in any order of the three corners (equal ones for different
         // corner sets cost a comparison of keys).
-        const K: u64 = 0x9E37_79B9_7F4A_7C15;
         let mask = self.table.len() - 1;
-        let mut i = (((corners[0] ^ corners[1] ^ corners[2]) as u64).wrapping_mul(K)
+        let mut i = (((corners[0] ^ corners[1] ^ corners[2]) as u64).wrapping_mul(SEEN_HASH)
             >> (64 - SEEN_BITS)) as usize;
         loop {
             let entry = self.table[i & mask];
@@ -517,6 +524,12 @@ impl Front {
                 let (r, k) = Self::unlink(l);
                 let rec = &self.records[r as usize];
                 (l, last) = (rec.next[k], Some(rec.slot));
+                if !split && at + 1 == hop {
+                    // The coincidence table's entry for its corners after the unify.
+                    let p = h.parent[v as usize];
+                    let c = rec.corner;
+                    crate::prefetch(self.seen.slot(c[0] ^ c[1] ^ c[2] ^ v ^ p));
+                }
                 if !split && i == 0 && has_corner(rec.corner, nodes[1]) {
                     // It degenerates in the unify, which takes it out of its third corner's list:
                     // that list follows this one, some stages behind.
