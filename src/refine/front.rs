@@ -585,14 +585,14 @@ impl Front {
     /// Record `hop` of the list around `w`, or its head for `hop` 0 (what [`Front::unlink_from`]
     /// walks).
     fn prefetch_chain(&self, w: u32, hop: usize) {
-        let Some(&head) = self.head.get(w as usize) else {
+        let Some(head) = self.head.get(w as usize) else {
             return;
         };
         if hop == 0 {
-            crate::prefetch(&self.head[w as usize]);
+            crate::prefetch(head);
             return;
         }
-        let mut l = head;
+        let mut l = *head;
         for _ in 1..hop {
             if l == NIL {
                 return;
