@@ -59,10 +59,6 @@ const BUDGET_STEP: f32 = 1.1;
 /// Budget mode aims between these shares of N; splits that would exceed N are refused outright.
 const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 
-/// Frames between re-sorts of the front list: sorting 30,000 nodes costs about a frame's visits, and
-/// the operations of a few frames scatter only a small part of it.
-const SORT_EVERY: u32 = 8;
-
 /// The look-ahead's stages, in visits ahead of the cursor (see [`Refiner::look_ahead`]). A visit
 /// takes ~40 ns and a load from memory ~150 ns here, so each stage comes a few visits after the one
 /// whose loads it needs. First the data of the visit (`VISIT_AHEAD`) and of its parent
@@ -181,7 +177,6 @@ pub struct Refiner {
     /// (node, position) pairs the renderer must write this frame.
     vertex_updates: Vec<(u32, Vec3)>,
     budget_tau: f32,
-    frames_since_sort: u32,
     /// The camera and τ of the last frame: a convergence holds only while they stay.
     last_view: Option<(Camera, f32, Settings)>,
     /// Time spent in splits and unifies this frame, in [`ticks`].
@@ -209,7 +204,6 @@ impl Refiner {
             morphs: HashMap::new(),
             vertex_updates: Vec::new(),
             budget_tau: settings.tolerance_px,
-            frames_since_sort: 0,
             last_view: None,
             ahead: [UNDECIDED; RING],
             operation_ahead: 0,
@@ -272,14 +266,12 @@ impl Refiner {
             Mode::Budget(n) => n as usize,
             Mode::Tolerance => usize::MAX,
         };
-        // Every few frames the front list goes back into memory order (see `Front::sort_active`):
-        // at once when every frame sweeps the whole front, only between sweeps when amortised (a
-        // sort mid-sweep would move nodes past the cursor).
-        self.frames_since_sort += 1;
-        let between_sweeps = self.settings.visit_limit.is_none() || self.cursor == 0;
-        if self.frames_since_sort >= SORT_EVERY && between_sweeps {
+        // The front list goes back into memory order between sweeps (see `Front::sort_active`): at
+        // the start of each frame when every frame sweeps until nothing changes, at the end of
+        // each sweep when amortised (a sort mid-sweep would move nodes past the cursor).
+        let amortised = self.settings.visit_limit.is_some() || self.settings.time_limit.is_some();
+        if !amortised {
             self.front.sort_active();
-            self.frames_since_sort = 0;
             self.cursor = 0;
         }
         // Decisions are for this frame's view only.
@@ -290,6 +282,11 @@ impl Refiner {
         let mut converged = false;
         while visited < limit {
             if self.cursor >= self.front.list().len() {
+                // (Unamortised, a frame of many operations, such as the first from the root, leaves
+                // many stale entries: the next sweep need not step over them.)
+                if amortised || self.front.stale_entries() > self.front.active_count() / 8 {
+                    self.front.sort_active();
+                }
                 self.cursor = 0;
                 self.operation_ahead = 0;
             }
@@ -306,14 +303,14 @@ impl Refiner {
             self.look_ahead(h, &view, tau);
             let u = self.front.list()[self.cursor];
             if !self.front.is_active(u) {
-                // Left the front since it was listed: the last entry takes its place, and is next.
-                self.front.unlist(self.cursor);
+                // Left the front since it was listed.
+                self.cursor += 1;
                 continue;
             }
             visited += 1;
             if self.visit(h, &view, u, tau, cap) {
-                // The front changed under the cursor: `u` left the front, and the next turn drops
-                // its entry.
+                // The front changed under the cursor: `u` left the front, and the next turn steps
+                // over its entry.
                 self.quiet_visits = 0;
             } else {
                 self.quiet_visits += 1;

@@ -29,10 +29,13 @@ pub fn check_front(h: &Hierarchy, front: &Front) -> Result<(), String> {
             return Err(format!("leaf {u} is split"));
         }
     }
-    let listed: HashSet<u32> = front.active().iter().copied().collect();
-    if listed.len() != front.active().len() {
-        return Err("a node is listed twice on the front".into());
+    // Every node has at most one entry in the front list, stale or not (else a sweep would visit
+    // it twice).
+    let mut entries = HashSet::new();
+    if let Some(u) = front.list().iter().find(|&&u| !entries.insert(u)) {
+        return Err(format!("node {u} has two entries in the front list"));
     }
+    let listed: HashSet<u32> = front.active().iter().copied().collect();
     let stated = (0..count).filter(|&u| front.state(u) == ACTIVE).count();
     if stated != listed.len() || listed.iter().any(|&u| front.state(u) != ACTIVE) {
         return Err(format!(
