@@ -520,6 +520,37 @@ fn dirty_ranges_cover_every_change() {
     }
 }
 
+/// Operations take their memory from the room `Front::make_room` made: within it, none grows an
+/// array (which would copy it and fault new pages in mid-operation).
+#[test]
+fn operations_use_the_room_made_for_them() {
+    let mesh = grid(40, 40, |x, y| (x * 3.0).sin() * (y * 2.0).cos() * 0.2);
+    let h = Hierarchy::new(&tree_of(&mesh));
+    let mut f = Front::new(&h);
+    let mut r = Rng(7);
+    for round in 0..30 {
+        f.make_room();
+        let bytes = f.bytes();
+        let triangles = f.triangle_count();
+        // At most 200 operations, each adding a few triangles: well within the room.
+        for _ in 0..200 {
+            let active = f.active();
+            let u = active[r.below(active.len() as u32) as usize];
+            let p = h.parent[u as usize];
+            if r.below(4) < 3 && f.can_split(&h, u) && f.triangle_count() < triangles + 300 {
+                f.split(&h, u);
+            } else if p != u32::MAX && f.can_unify(&h, p) {
+                f.unify(&h, p);
+            }
+        }
+        assert_eq!(
+            f.bytes(),
+            bytes,
+            "round {round}: an array grew inside an operation"
+        );
+    }
+}
+
 /// The real models (multi-part cessna, non-manifold beetle and others): any-order operations and
 /// camera walks, checked every frame; foldovers measured.
 #[test]

@@ -242,6 +242,7 @@ impl Refiner {
         let view = View::new(camera);
         let (splits0, unifies0) = (self.front.splits, self.front.unifies);
         self.vertex_updates.clear();
+        self.front.make_room();
         self.advance_morphs(h);
 
         let tau = match self.settings.mode {

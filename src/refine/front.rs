@@ -42,6 +42,13 @@ const HIDDEN: u32 = u32::MAX;
 /// its third corner's list and freed once both have been walked.
 const DYING: u32 = u32::MAX - 1;
 
+/// The least room [`Front::make_room`] leaves in each array, in elements.
+const MIN_ROOM: usize = 512;
+
+/// Room [`Front::make_room`] leaves in the scratch lists: an operation around a node of this many
+/// triangles or fewer grows none.
+const SCRATCH_ROOM: usize = 64;
+
 /// Dirty tracking granularity, in triangles: one bit per 64 triangles (768 bytes of indices).
 const DIRTY_BLOCK: u32 = 64;
 
@@ -313,6 +320,8 @@ pub struct Front {
     /// When set, every operation is appended here (`u` for `vsplit(u)`, `!p` for `vunify(p)`), so
     /// that a run can be replayed without the view tests (benchmarks time the operations alone).
     pub log: Option<Vec<u32>>,
+    /// The capacities of the arrays [`Front::make_room`] looks after when it last touched them.
+    touched: [usize; 5],
     pub splits: u64,
     pub unifies: u64,
 }
@@ -346,6 +355,8 @@ impl Clone for Front {
             seen: self.seen.clone(),
             candidates: self.candidates.clone(),
             log: self.log.clone(),
+            // A copy's spare capacity is new memory.
+            touched: [0; 5],
             splits: self.splits,
             unifies: self.unifies,
         }
@@ -357,7 +368,10 @@ impl Front {
     pub fn new(h: &Hierarchy) -> Front {
         let nodes = h.node_count() as usize;
         let root = h.root();
-        let mut state = vec![BELOW; nodes];
+        // Written, not allocated zeroed: zeroed memory comes from the system untouched, and the
+        // operations would fault its pages in as the front reaches them.
+        let mut state = Vec::with_capacity(nodes);
+        state.resize(nodes, BELOW);
         state[root as usize] = ACTIVE | LISTED;
         Front {
             state,
@@ -374,6 +388,7 @@ impl Front {
             seen: Seen::new(),
             candidates: Candidates::new(),
             log: None,
+            touched: [0; 5],
             splits: 0,
             unifies: 0,
         }
@@ -662,6 +677,53 @@ impl Front {
             + self.keyed.capacity() * size_of::<(u128, u32)>()
             + size_of::<[u64; 1 << SEEN_BITS]>()
             + size_of::<[(u32, u32, u32); CANDIDATES]>()
+    }
+
+    /// Makes room ahead of need in the arrays that grow with the front (records, free records,
+    /// drawn triangles, front list), and touches it: the operations then take new memory without
+    /// waiting for the system. Growing a `Vec` inside an operation copies it and faults its new
+    /// pages in one at a time (~2 µs each here, and the kernel's zeroing of each page evicts what
+    /// the look-ahead fetched): on the dragon's fly-in, whose front doubles, that halved the
+    /// operations' rate. Called between operations (by the runtime once a frame); an array grows
+    /// by half its length once less than an eighth is left, so the capacity stays within 1.5× of
+    /// the length plus a little, as a `Vec`'s own doubling would.
+    pub fn make_room(&mut self) {
+        /// Grows `v` if it is short of room, and touches its spare capacity unless `touched`, the
+        /// capacity it had when last touched, says that is done.
+        fn room<T: Copy>(v: &mut Vec<T>, touched: &mut usize, fill: T) {
+            let len = v.len();
+            if v.capacity() - len < len / 8 + MIN_ROOM {
+                v.reserve_exact(len / 2 + 2 * MIN_ROOM);
+            }
+            if v.capacity() != *touched {
+                // Touched by writing and dropping: no unsafe code, and the writes cannot be
+                // skipped (the memory is not known to be zero).
+                v.resize(v.capacity(), fill);
+                v.truncate(len);
+                *touched = v.capacity();
+            }
+        }
+        const BLANK: Record = Record {
+            corner: [NIL; 3],
+            next: [NIL; 3],
+            input: [NIL; 3],
+            slot: HIDDEN,
+        };
+        let [records, free, indices, slots, list] = &mut self.touched;
+        room(&mut self.records, records, BLANK);
+        room(&mut self.free_records, free, 0);
+        room(&mut self.drawn.indices, indices, [0; 3]);
+        room(&mut self.drawn.slot_record, slots, 0);
+        room(&mut self.list, list, 0);
+        // Dirty bits for every slot there is room for.
+        let words = (self.drawn.indices.capacity()).div_ceil((DIRTY_BLOCK * 64) as usize);
+        let dirty = &mut self.drawn.dirty;
+        dirty.reserve(words.saturating_sub(dirty.len()));
+        // The scratch lists, once.
+        for scratch in [&mut self.group, &mut self.pending, &mut self.dying] {
+            scratch.reserve(SCRATCH_ROOM);
+        }
+        self.keyed.reserve(SCRATCH_ROOM);
     }
 
     fn activate(&mut self, u: u32) {
