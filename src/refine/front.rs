@@ -283,10 +283,18 @@ impl Candidates {
     /// The candidate holding `leaf`.
     #[inline(always)]
     fn holding(&self, leaf: u32) -> Option<u32> {
-        self.ranges[..self.len]
-            .iter()
-            .find(|&&(lo, hi, _)| lo <= leaf && leaf < hi)
-            .map(|&(_, _, w)| w)
+        // Every candidate looked at, without a branch on the data: the one that holds the leaf
+        // is anywhere among them, and an early exit would be mispredicted on every call.
+        let mut found = NIL;
+        for &(lo, hi, w) in &self.ranges[..self.len] {
+            // (Ranges of distinct active nodes are disjoint: at most one matches.)
+            found = if leaf.wrapping_sub(lo) < hi - lo {
+                w
+            } else {
+                found
+            };
+        }
+        (found != NIL).then_some(found)
     }
 }
 
