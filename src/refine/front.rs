@@ -464,7 +464,7 @@ impl Front {
     /// and an update of the list, and keeps the entries ahead of a visit where they are, which the
     /// runtime's look-ahead relies on (filling the hole with the last entry, as a swap-remove
     /// would, brought a node to the cursor that the look-ahead had never seen: an operation on it
-    /// cost two and a half times as much).
+    /// cost 2.2–2.5 times as much).
     pub fn list(&self) -> &[u32] {
         &self.list
     }
