@@ -374,7 +374,7 @@ impl Refiner {
             let d = self.ahead[(self.cursor + ahead) % RING];
             if d.node == v {
                 if hop == RECORDS_AHEAD.len() - 1 && (d.split || d.unify_parent == Some(true)) {
-                    self.front.prefetch_scratch();
+                    self.front.prefetch_scratch(!d.split);
                 }
                 if d.split {
                     self.front.prefetch_lists(h, &[v], hop, true);

@@ -510,7 +510,16 @@ impl Front {
             crate::prefetch(&self.state[v as usize]);
             crate::prefetch(&self.head[v as usize]);
         }
-        if let Some(t) = h.triangles.get(h.appearing(u).start as usize) {
+        // The appearing triangles (usually two, and 12 bytes each: a third of the time on two
+        // cache lines), and the next node's entry, which ends their range (a quarter of the time on
+        // another line). Neither loaded here: that would stall the visit instead. Asking for the
+        // second triangle and the next entry too took the fly-in's operations from 5.0 to 5.9 M/s.
+        let k = (u - h.leaf_count) as usize;
+        if let Some(next) = h.internal.get(k + 1) {
+            crate::prefetch(next);
+        }
+        let first = h.internal[k].appear as usize;
+        for t in h.triangles.iter().skip(first).take(2) {
             crate::prefetch(t);
         }
         // The records the appearing triangles will take.
@@ -586,8 +595,9 @@ impl Front {
 
     /// A hint for the memory system, a few visits before an operation: the ends of the arrays
     /// every operation reads or writes (the drawn triangles' last slot, the free records' top, the
-    /// scratch lists), which the visits between two operations evict.
-    pub fn prefetch_scratch(&self) {
+    /// scratch lists), which the visits between two operations evict; before a unify, also the
+    /// records of the last drawn triangles.
+    pub fn prefetch_scratch(&self, unify: bool) {
         if let Some(last) = self.drawn.indices.last() {
             crate::prefetch(last);
         }
@@ -599,6 +609,14 @@ impl Front {
         }
         if let Some(top) = self.free_records.last() {
             crate::prefetch(top);
+        }
+        if unify {
+            // The unify's degenerate triangles (usually two) release their draw slots, the last
+            // drawn triangles move into them, and their records are told (orbit x1.08; a split
+            // releases none, and asking for them there cost 4 %).
+            for &r in self.drawn.slot_record.iter().rev().take(2) {
+                crate::prefetch(&self.records[r as usize].slot);
+            }
         }
         crate::prefetch_address(self.pending.as_ptr() as usize);
         crate::prefetch_address(self.dying.as_ptr() as usize);
