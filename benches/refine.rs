@@ -173,7 +173,8 @@ fn main() {
                 peak_bytes = peak_bytes.max(r.front.bytes());
             }
             // The operations as the runtime ran them, each timed (with its look-ahead's prefetching,
-            // and among the visits, which evict what they use).
+            // and among the visits, which evict what they use) between fences, less the fences' own
+            // cost (see `FrameStats::operation_secs`).
             let loop_rate = ops as f64 / op_secs / 1e6;
             // A second runtime from the same front records the path's operations for the replays
             // (the timed one does not: the log's growth, first touches of memory at ~20 µs a page
