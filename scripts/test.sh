@@ -32,6 +32,11 @@ log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 cargo test --doc --locked 2>&1 | tee "$log"
 cargo test --lib --bins --tests --locked --no-fail-fast 2>&1 | tee -a "$log"
+# The runtime's benchmark on the dragon (issue 3 §7), a short run: its numbers are printed, not
+# asserted (BENCHMARKS.md has the full runs); without a GPU crate, so it builds quickly.
+if [ -n "${VUNIFY_MODELS:-}" ]; then
+  cargo bench --locked --no-default-features --bench refine -- --models dragon --frames 60
+fi
 # One closing line over every test binary above.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($i ~ /^passed/) p += $(i-1); if ($i ~ /^failed/) f += $(i-1) } }
      END { printf "%d passed, %d failed\n", p, f }' "$log"
