@@ -615,7 +615,9 @@ impl Front {
             // drawn triangles move into them, and their records are told (orbit x1.08; a split
             // releases none, and asking for them there cost 4 %).
             for &r in self.drawn.slot_record.iter().rev().take(2) {
-                crate::prefetch(&self.records[r as usize].slot);
+                if let Some(rec) = self.records.get(r as usize) {
+                    crate::prefetch(&rec.slot);
+                }
             }
         }
         crate::prefetch_address(self.pending.as_ptr() as usize);
