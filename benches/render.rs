@@ -4,8 +4,8 @@
 //!
 //! `cargo bench --bench render [-- --model dragon --seconds 10 --fps 10 --tau 1 --size 1024x768]`
 
+use vunify::camera_path::CameraPath;
 use vunify::mesh::CleanOptions;
-use vunify::path::CameraPath;
 use vunify::refine::{Hierarchy, Settings};
 use vunify::render::job::{RenderJob, render_path};
 use vunify::render::{DrawOptions, Gpu};

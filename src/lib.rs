@@ -7,10 +7,10 @@
 
 #[cfg(feature = "viewer")]
 pub mod app;
+pub mod camera_path;
 pub mod export;
 pub mod measure;
 pub mod mesh;
-pub mod path;
 pub mod refine;
 #[cfg(feature = "render")]
 pub mod render;

@@ -181,7 +181,7 @@ fn scripted_run_shows_the_model_and_the_panel() {
     );
 
     // The recorded camera path is one `vunify render --path` reads.
-    let path = vunify::path::CameraPath::load(&recorded).expect("the recorded path");
+    let path = vunify::camera_path::CameraPath::load(&recorded).expect("the recorded path");
     assert!(!path.keyframes.is_empty());
 
     // Statistics: one line a frame; the front refines as the camera flies in.

@@ -160,7 +160,7 @@ fn path_and_render_commands() {
         path.to_str().unwrap(),
     ]));
     assert!(out.contains("keyframes"), "{out}");
-    vunify::path::CameraPath::load(&path).unwrap();
+    vunify::camera_path::CameraPath::load(&path).unwrap();
 
     let broken = tmp("broken.json");
     std::fs::write(

@@ -675,7 +675,7 @@ fn fronts_start_from_any_cut() {
             (vec![h.node_count()], "not in the tree"),
         ] {
             let err = Front::at_cut(&h, &bad).err().expect("refused");
-            assert!(err.contains(why), "{bad:?}: {err}");
+            assert!(err.to_string().contains(why), "{bad:?}: {err}");
         }
     }
 }

@@ -2,7 +2,6 @@
 //! thread that reports progress; built trees are cached in the user's cache directory, keyed by the
 //! file's content and the build options.
 
-use crate::mesh::{self, CleanOptions};
 use crate::refine::Hierarchy;
 use crate::simplify::Metric;
 use crate::vtree::{self, BuildOptions, VertexTree};
@@ -49,32 +48,29 @@ pub fn load(
     metric: Metric,
     progress: &mut dyn FnMut(f32, &str),
 ) -> Result<Loaded, String> {
-    let is_vtree = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("vtree"));
-    let (tree, cached) = if is_vtree {
-        progress(0.0, "reading the tree");
-        (vtree::read(path).map_err(|e| e.to_string())?, false)
+    let options = BuildOptions {
+        metric,
+        ..Default::default()
+    };
+    let mut build_progress = |done: usize, total: usize| {
+        progress(
+            done as f32 / total.max(1) as f32,
+            "building the vertex tree",
+        )
+    };
+    let (tree, cached) = if vtree::is_tree_file(path) {
+        (
+            vtree::load_or_build(path, &options, &mut build_progress).map_err(|e| e.to_string())?,
+            false,
+        )
     } else {
         let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let cache = cache_file(&bytes, metric);
         match cache.as_deref().and_then(|c| vtree::read(c).ok()) {
             Some(tree) => (tree, true),
             None => {
-                progress(0.0, "reading the mesh");
-                let (m, _) =
-                    mesh::load(path, &CleanOptions::default()).map_err(|e| e.to_string())?;
-                let options = BuildOptions {
-                    metric,
-                    ..Default::default()
-                };
-                let (tree, _) = vtree::build(&m, &options, &mut |done, total| {
-                    progress(
-                        done as f32 / total.max(1) as f32,
-                        "building the vertex tree",
-                    );
-                })
-                .map_err(|e| format!("{}: {e}", path.display()))?;
+                let tree = vtree::load_or_build(path, &options, &mut build_progress)
+                    .map_err(|e| e.to_string())?;
                 if let Some(c) = &cache {
                     if let Some(dir) = c.parent() {
                         let _ = std::fs::create_dir_all(dir);

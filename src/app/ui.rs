@@ -1,8 +1,9 @@
 //! The egui panel: file, LOD controls, display, navigation, camera paths, the compare view, statistics;
 //! the keyboard help; the frozen refinement frustum and the compare view's labels drawn over the 3D view.
 
+use super::frame::{apply, start_playback, toggle_compare};
 use super::settings::ViewerSettings;
-use super::{Recording, ViewState, apply, start_playback, toggle_compare};
+use super::{Recording, ViewState};
 use crate::refine::Camera;
 use crate::render::ColorBy;
 use egui::{Color32, RichText, Ui};
@@ -248,7 +249,7 @@ fn path_section(ui: &mut Ui, view: &mut ViewState) {
         Some(rec) => {
             ui.label(format!("recording: {} keyframes", rec.keyframes.len()));
             if ui.button("stop and save").clicked() {
-                super::stop_recording(view);
+                super::frame::stop_recording(view);
             }
         }
     });

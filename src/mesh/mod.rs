@@ -85,40 +85,74 @@ impl Mesh {
     }
 
     /// Checks the structural invariants every loader and [`clean`] guarantee.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), MeshProblem> {
         let n = self.positions.len();
         if let Some(c) = &self.colors
             && c.len() != n
         {
-            return Err(format!("{} colours for {n} positions", c.len()));
+            return Err(MeshProblem::ColorCount {
+                colors: c.len(),
+                positions: n,
+            });
         }
         if let Some(c) = &self.normals
             && c.len() != n
         {
-            return Err(format!("{} normals for {n} positions", c.len()));
+            return Err(MeshProblem::NormalCount {
+                normals: c.len(),
+                positions: n,
+            });
         }
         for (i, p) in self.positions.iter().enumerate() {
             if !p.is_finite() {
-                return Err(format!("position {i} is not finite: {p}"));
+                return Err(MeshProblem::NotFinite {
+                    index: i,
+                    position: *p,
+                });
             }
         }
         for (i, t) in self.triangles.iter().enumerate() {
             if t.iter().any(|&v| v as usize >= n) {
-                return Err(format!("triangle {i} {t:?} indexes past {n} positions"));
+                return Err(MeshProblem::IndexPastEnd {
+                    index: i,
+                    corners: *t,
+                    positions: n,
+                });
             }
         }
         let mut next = 0;
         for p in &self.parts {
             if p.triangles.start != next || p.triangles.end < p.triangles.start {
-                return Err(format!("part {:?} does not tile the triangle list", p.name));
+                return Err(MeshProblem::PartsOverlap(p.name.clone()));
             }
             next = p.triangles.end;
         }
         if next as usize != self.triangles.len() {
-            return Err("parts do not cover every triangle".into());
+            return Err(MeshProblem::PartsShort);
         }
         Ok(())
     }
+}
+
+/// A broken structural invariant of a [`Mesh`] (see [`Mesh::check`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshProblem {
+    #[error("{colors} colours for {positions} positions")]
+    ColorCount { colors: usize, positions: usize },
+    #[error("{normals} normals for {positions} positions")]
+    NormalCount { normals: usize, positions: usize },
+    #[error("position {index} is not finite: {position}")]
+    NotFinite { index: usize, position: Vec3 },
+    #[error("triangle {index} {corners:?} indexes past {positions} positions")]
+    IndexPastEnd {
+        index: usize,
+        corners: [u32; 3],
+        positions: usize,
+    },
+    #[error("part {0:?} does not tile the triangle list")]
+    PartsOverlap(String),
+    #[error("parts do not cover every triangle")]
+    PartsShort,
 }
 
 /// The file formats vunify reads.

@@ -4,6 +4,8 @@
 use super::criteria::{Camera, Tests, View};
 use super::front::Front;
 use super::hierarchy::{Hierarchy, NIL};
+use super::lookahead::{Decision, LookAhead};
+use super::trace::OpClock;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -59,129 +61,6 @@ const BUDGET_STEP: f32 = 1.1;
 /// Budget mode aims between these shares of N; splits that would exceed N are refused outright.
 const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 
-/// The look-ahead's stages, in visits ahead of the cursor (see [`Refiner::look_ahead`]). A visit
-/// takes ~40 ns and a load from memory ~150 ns here, so each stage comes a few visits after the one
-/// whose loads it needs. First the data of the visit (`VISIT_AHEAD`) and of its parent
-/// (`PARENT_AHEAD`, which needs the parent id); then its view tests are decided early
-/// (`DECIDE_AHEAD`) and the data of the operation they ask for is asked for
-/// ([`Front::prefetch_split`]); then the records around it, one hop along its lists per stage
-/// (`RECORDS_AHEAD`, [`Front::prefetch_lists`]): a list is a pointer chase, which no single
-/// prefetch can cover. Sixteen stages three visits apart cover lists of up to sixteen records
-/// (an operation walks about two dozen, in one or two lists) with a hop's load time between
-/// stages; eight stages two visits apart gave 6–8 % fewer operations a second in the loop.
-const VISIT_AHEAD: usize = 72;
-const PARENT_AHEAD: usize = 62;
-const DECIDE_AHEAD: usize = 52;
-const RECORDS_AHEAD: [usize; 16] = [49, 46, 43, 40, 37, 34, 31, 28, 25, 22, 19, 16, 13, 10, 7, 4];
-/// Decisions made ahead, by list position modulo this (a power of two above `DECIDE_AHEAD`).
-const RING: usize = 64;
-
-/// What the view tests ask of an active node: both depend only on the node and the view, so a
-/// decision made a few visits early holds when the visit comes (the front's state, which can
-/// change meanwhile, is checked then).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Decision {
-    node: u32,
-    /// Split the node.
-    split: bool,
-    /// Unify its parent (weighed from the first child only: the second would ask the same);
-    /// `None` when not weighed because the parent could not unify then (its second child was not
-    /// on the front), which the visit checks again.
-    unify_parent: Option<bool>,
-}
-
-const UNDECIDED: Decision = Decision {
-    node: NIL,
-    split: false,
-    unify_parent: Some(false),
-};
-
-/// A hint for the memory system: what visiting front node `u` reads — its position, view data and
-/// parent — or, at the `parent` stage (which needs the first one's load of the parent id), what weighing
-/// its parent for a unify reads.
-#[inline]
-fn prefetch_visit(h: &Hierarchy, u: u32, parent: bool) {
-    let n = h.leaf_count;
-    let node = if parent { h.parent[u as usize] } else { u };
-    if node == NIL {
-        return;
-    }
-    crate::prefetch(&h.position[node as usize]);
-    if node >= n {
-        crate::prefetch(&h.internal_bounds[(node - n) as usize]);
-        // A split of the node, or the unify test of the parent, reads its structure.
-        crate::prefetch(&h.internal[(node - n) as usize]);
-    }
-    if !parent {
-        crate::prefetch(&h.parent[u as usize]);
-    }
-}
-
-/// A clock for the short spans of single operations: the time-stamp counter where there is one
-/// (about 10 ns a read here, where `Instant::now` takes about 23 ns, a tenth of an operation),
-/// converted to seconds against `Instant` over each frame; nanoseconds elsewhere.
-#[inline(always)]
-fn ticks() -> u64 {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: reading the time-stamp counter has no preconditions.
-    unsafe {
-        core::arch::x86_64::_rdtsc()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        static EPOCH: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
-        EPOCH.get_or_init(Instant::now).elapsed().as_nanos() as u64
-    }
-}
-
-/// The start of a timed span: [`ticks`] once everything before has finished, and before anything
-/// after starts (Intel's "How to Benchmark Code Execution Times on Intel IA-32 and IA-64", 2010,
-/// with `lfence`, which orders the counter read on both makers' processors, for `cpuid`). Read
-/// without fences, the counter drifts into the work around it: the fly-in's operations came out
-/// 10 % cheaper that way, part of their work overlapping the visits around them. Fenced, an
-/// operation is charged all of its own work and none of that overlap: the conservative figure.
-#[inline(always)]
-fn span_start() -> u64 {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: fences and the time-stamp counter have no preconditions.
-    unsafe {
-        use core::arch::x86_64::{_mm_lfence, _rdtsc};
-        _mm_lfence();
-        let t = _rdtsc();
-        _mm_lfence();
-        t
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    ticks()
-}
-
-/// The end of a timed span: [`ticks`] once everything in it has finished.
-#[inline(always)]
-fn span_end() -> u64 {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: as for `span_start`.
-    unsafe {
-        use core::arch::x86_64::{_mm_lfence, _rdtsc};
-        _mm_lfence();
-        _rdtsc()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    ticks()
-}
-
-/// What an empty span measures, the least of a few: taken off each operation's span, so that an
-/// operation is charged its own work and not the fences' and the counter's (10 ns here at the
-/// least, 20 at the median). The least, so that none is charged less than its work.
-fn span_overhead() -> u64 {
-    (0..16)
-        .map(|_| {
-            let t0 = span_start();
-            span_end().wrapping_sub(t0)
-        })
-        .min()
-        .unwrap_or(0)
-}
-
 /// What one frame did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FrameStats {
@@ -195,9 +74,8 @@ pub struct FrameStats {
     pub morphing: u32,
     /// Time spent adapting, in seconds.
     pub refine_secs: f64,
-    /// Of that, time spent inside the splits and unifies themselves: what the operations cost in
-    /// the loop, with the look-ahead's prefetching. Each is timed by the time-stamp counter
-    /// between fences, less what an empty span measures this frame (see `span_overhead`).
+    /// Of that, time spent inside the splits and unifies themselves (for the benchmarks: 0 unless
+    /// built with the `trace` feature, see `refine::trace`).
     pub operation_secs: f64,
     /// τ used this frame (varies in budget mode).
     pub tolerance_px: f32,
@@ -227,15 +105,10 @@ pub struct Refiner {
     budget_tau: f32,
     /// The camera and τ of the last frame: a convergence holds only while they stay.
     last_view: Option<(Camera, f32, Settings)>,
-    /// Time spent in splits and unifies this frame, in [`ticks`].
-    operation_ticks: u64,
-    /// What an empty span measures this frame, in [`ticks`].
-    span_overhead: u64,
-    /// Decisions made ahead of the cursor, by list position modulo `RING`.
-    ahead: [Decision; RING],
-    /// The list position of the last decision made ahead that asks for an operation: until the
-    /// cursor passes it, visits prefetch along its lists.
-    operation_ahead: usize,
+    /// Work ahead of the cursor (see `refine::lookahead`).
+    look: LookAhead,
+    /// Time spent in splits and unifies this frame (benchmarks only, see `refine::trace`).
+    clock: OpClock,
 }
 
 impl Refiner {
@@ -255,10 +128,8 @@ impl Refiner {
             vertex_updates: Vec::new(),
             budget_tau: settings.tolerance_px,
             last_view: None,
-            ahead: [UNDECIDED; RING],
-            operation_ahead: 0,
-            operation_ticks: 0,
-            span_overhead: 0,
+            look: LookAhead::new(),
+            clock: OpClock::default(),
         }
     }
 
@@ -289,8 +160,7 @@ impl Refiner {
     /// Adapts the front to one frame seen from `camera`.
     pub fn update(&mut self, h: &Hierarchy, camera: &Camera) -> FrameStats {
         let start = Instant::now();
-        let start_ticks = ticks();
-        self.span_overhead = span_overhead();
+        self.clock.start_frame();
         let view = View::new(camera);
         let (splits0, unifies0) = (self.front.splits, self.front.unifies);
         self.vertex_updates.clear();
@@ -328,8 +198,7 @@ impl Refiner {
             self.cursor = 0;
         }
         // Decisions are for this frame's view only.
-        self.ahead = [UNDECIDED; RING];
-        self.operation_ahead = 0;
+        self.look.reset();
         let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
         let mut visited = 0usize;
         let mut converged = false;
@@ -341,7 +210,7 @@ impl Refiner {
                     self.front.sort_active();
                 }
                 self.cursor = 0;
-                self.operation_ahead = 0;
+                self.look.restart();
             }
             if self.quiet_visits >= self.front.active_count() {
                 converged = true;
@@ -353,7 +222,10 @@ impl Refiner {
             {
                 break;
             }
-            self.look_ahead(h, &view, tau);
+            let (settings, front) = (&self.settings, &self.front);
+            self.look.run(h, front, self.cursor, |v| {
+                decide(settings, front, h, &view, v, tau)
+            });
             let u = self.front.list()[self.cursor];
             if !self.front.is_active(u) {
                 // Left the front since it was listed.
@@ -378,83 +250,9 @@ impl Refiner {
             visited: visited as u32,
             morphing: self.morphs.len() as u32,
             refine_secs: start.elapsed().as_secs_f64(),
-            operation_secs: {
-                // Ticks to seconds at the rate the frame's ticks went against its clock.
-                let frame_ticks = ticks().saturating_sub(start_ticks).max(1);
-                let ops = std::mem::take(&mut self.operation_ticks);
-                ops as f64 * start.elapsed().as_secs_f64() / frame_ticks as f64
-            },
+            operation_secs: self.clock.frame_seconds(start.elapsed().as_secs_f64()),
             tolerance_px: tau,
             converged,
-        }
-    }
-
-    /// Works ahead of the cursor, so that the loads of the visits and operations to come overlap
-    /// with this one's work instead of queueing after it. The front list is in memory order
-    /// (mostly), and a visit or operation only changes it at the cursor and at its end: the
-    /// entries ahead stay where they are until the cursor reaches them.
-    fn look_ahead(&mut self, h: &Hierarchy, view: &View, tau: f32) {
-        let list = self.front.list();
-        let at = |i: usize| list.get(self.cursor + i).copied();
-        if let Some(v) = at(VISIT_AHEAD) {
-            prefetch_visit(h, v, false);
-        }
-        if let Some(v) = at(PARENT_AHEAD) {
-            prefetch_visit(h, v, true);
-        }
-        if let Some(v) = at(DECIDE_AHEAD) {
-            let slot = (self.cursor + DECIDE_AHEAD) % RING;
-            // (A node that has left the front gets a decision too: its entry is dropped unused.)
-            if self.ahead[slot].node != v {
-                let d = self.decide(h, view, v, tau);
-                if d.split {
-                    self.front.prefetch_split(h, v);
-                } else if d.unify_parent == Some(true) {
-                    self.front.prefetch_unify(h, h.parent[v as usize]);
-                }
-                if d.split || d.unify_parent == Some(true) {
-                    self.operation_ahead = self.cursor + DECIDE_AHEAD;
-                }
-                self.ahead[slot] = d;
-            }
-        }
-        if self.operation_ahead <= self.cursor {
-            return;
-        }
-        for (hop, ahead) in RECORDS_AHEAD.into_iter().enumerate() {
-            let Some(v) = at(ahead) else { continue };
-            let d = self.ahead[(self.cursor + ahead) % RING];
-            if d.node == v {
-                if hop == RECORDS_AHEAD.len() - 1 && (d.split || d.unify_parent == Some(true)) {
-                    self.front.prefetch_scratch(!d.split);
-                }
-                if d.split {
-                    self.front.prefetch_lists(h, &[v], hop, true);
-                } else if d.unify_parent == Some(true) {
-                    self.front
-                        .prefetch_lists(h, &h.children(h.parent[v as usize]), hop, false);
-                }
-            }
-        }
-    }
-
-    /// What the view tests ask of active node `u` (see [`Decision`]).
-    #[inline(always)]
-    fn decide(&self, h: &Hierarchy, view: &View, u: u32, tau: f32) -> Decision {
-        let tests = self.settings.tests;
-        let split = !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau;
-        let p = h.parent[u as usize];
-        let unify_parent = if split || p == NIL || h.children(p)[0] != u {
-            Some(false)
-        } else if self.front.can_unify(h, p) {
-            Some(self.wants_unify(h, view, p, tau))
-        } else {
-            None
-        };
-        Decision {
-            node: u,
-            split,
-            unify_parent,
         }
     }
 
@@ -467,17 +265,15 @@ impl Refiner {
         {
             // Shrinking towards its parent: carry on unless the parent is wanted after all.
             let p = m.unify_into;
-            if self.wants_unify(h, view, p, tau) {
+            if wants_unify(&self.settings, h, view, p, tau) {
                 return false;
             }
             self.cancel_unify(h, p);
             return false;
         }
-        let early = self.ahead[self.cursor % RING];
-        let d = if early.node == u {
-            early
-        } else {
-            self.decide(h, view, u, tau)
+        let d = match self.look.decision(self.cursor, u) {
+            Some(early) => early,
+            None => decide(&self.settings, &self.front, h, view, u, tau),
         };
         if d.split {
             return self.split(h, u, cap);
@@ -485,7 +281,7 @@ impl Refiner {
         let p = h.parent[u as usize];
         let unify = match d.unify_parent {
             Some(wanted) => wanted,
-            None => self.front.can_unify(h, p) && self.wants_unify(h, view, p, tau),
+            None => self.front.can_unify(h, p) && wants_unify(&self.settings, h, view, p, tau),
         };
         if unify && self.front.can_unify(h, p) {
             let instant = self.settings.geomorph_frames == 0 || !tests.visible(h, view, p);
@@ -498,13 +294,6 @@ impl Refiner {
         false
     }
 
-    fn wants_unify(&self, h: &Hierarchy, view: &View, p: u32, tau: f32) -> bool {
-        let tests = self.settings.tests;
-        !tests.visible(h, view, p)
-            || (tests.screen_error
-                && tests.error_px(h, view, p) < tau * (1.0 - self.settings.hysteresis))
-    }
-
     /// Splits `u` unless that would draw more than `cap` triangles; returns whether it did.
     fn split(&mut self, h: &Hierarchy, u: u32, cap: usize) -> bool {
         // Appearing triangles are an upper bound on the growth, except where the split parts
@@ -513,13 +302,13 @@ impl Refiner {
             return false;
         }
         let from = self.displayed(h, u);
-        let t0 = span_start();
+        let t0 = self.clock.start();
         self.front.split(h, u);
         let undo = self.front.triangle_count() > cap;
         if undo {
             self.front.unify(h, u);
         }
-        self.add_span(t0);
+        self.clock.stop(t0);
         if undo {
             return false;
         }
@@ -549,16 +338,9 @@ impl Refiner {
                 self.vertex_updates.push((c, h.position[c as usize]));
             }
         }
-        let t0 = span_start();
+        let t0 = self.clock.start();
         self.front.unify(h, p);
-        self.add_span(t0);
-    }
-
-    /// Counts the span from `t0` (a [`span_start`]) to now as operation time.
-    #[inline(always)]
-    fn add_span(&mut self, t0: u64) {
-        let span = span_end().wrapping_sub(t0);
-        self.operation_ticks += span.saturating_sub(self.span_overhead);
+        self.clock.stop(t0);
     }
 
     /// The reverse geomorph: both children move to the parent's position, then unify.
@@ -620,4 +402,39 @@ impl Refiner {
             .collect();
         self.vertex_updates.extend(updates);
     }
+}
+
+/// What the view tests ask of active node `u` (see [`Decision`]).
+#[inline(always)]
+fn decide(
+    settings: &Settings,
+    front: &Front,
+    h: &Hierarchy,
+    view: &View,
+    u: u32,
+    tau: f32,
+) -> Decision {
+    let tests = settings.tests;
+    let split = !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau;
+    let p = h.parent[u as usize];
+    let unify_parent = if split || p == NIL || h.children(p)[0] != u {
+        Some(false)
+    } else if front.can_unify(h, p) {
+        Some(wants_unify(settings, h, view, p, tau))
+    } else {
+        None
+    };
+    Decision {
+        node: u,
+        split,
+        unify_parent,
+    }
+}
+
+/// Whether split node `p` should unify: outside the view, or its error below τ less the
+/// hysteresis.
+fn wants_unify(settings: &Settings, h: &Hierarchy, view: &View, p: u32, tau: f32) -> bool {
+    let tests = settings.tests;
+    !tests.visible(h, view, p)
+        || (tests.screen_error && tests.error_px(h, view, p) < tau * (1.0 - settings.hysteresis))
 }

@@ -5,15 +5,18 @@
 //!
 //! [`hierarchy`] prepares a tree for the runtime, [`front`] holds the live vertex and triangle chains
 //! and the `vsplit` / `vunify` operations, [`criteria`] the camera and the three tests, [`adapt`] the
-//! per-frame driver, [`validation`] from-scratch checks for tests.
+//! per-frame driver (with `lookahead`, the prefetching that keeps it from waiting on memory),
+//! [`validation`] from-scratch checks for tests.
 
 pub mod adapt;
 pub mod criteria;
 pub mod front;
 pub mod hierarchy;
+mod lookahead;
+mod trace;
 pub mod validation;
 
 pub use adapt::{FrameStats, Mode, Refiner, Settings};
 pub use criteria::{Camera, Tests, View};
-pub use front::Front;
+pub use front::{CutError, Front};
 pub use hierarchy::Hierarchy;

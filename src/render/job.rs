@@ -5,7 +5,7 @@ use super::RenderError;
 use super::headless::{Gpu, OFFSCREEN_FORMAT, Offscreen};
 use super::image_diff::{self, Comparison};
 use super::renderer::{DrawOptions, Renderer};
-use crate::path::CameraPath;
+use crate::camera_path::CameraPath;
 use crate::refine::{Camera, Front, Hierarchy, Refiner, Settings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -87,6 +87,17 @@ pub fn camera_at(path: &CameraPath, t: f32, size: [u32; 2], diagonal: f32) -> Ca
     path.camera(t, size, near, far)
 }
 
+/// The most frames one render makes: a day of path at 30 fps would be 2.6 million PNG-less frames of
+/// statistics, and no user means that; a typo in a path's times does happen.
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Frames in a path of `seconds` at `fps`, the first and last included; `None` past [`MAX_FRAMES`]
+/// (or for a duration or rate that is not a positive finite number).
+pub fn frame_count(seconds: f32, fps: f32) -> Option<usize> {
+    let frames = (seconds as f64 * fps as f64).floor() + 1.0;
+    (frames.is_finite() && frames >= 1.0 && frames <= MAX_FRAMES as f64).then_some(frames as usize)
+}
+
 /// Renders `path` over the model; writes frames, `stats.csv`, `contact_sheet.png` (and with
 /// `compare`, `worst_side_by_side.png`) into `job.out_dir`.
 pub fn render_path(
@@ -96,6 +107,10 @@ pub fn render_path(
     job: &RenderJob,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Summary, JobError> {
+    let frames = frame_count(path.duration(), job.fps).ok_or(JobError::TooManyFrames {
+        seconds: path.duration(),
+        fps: job.fps,
+    })?;
     std::fs::create_dir_all(&job.out_dir).map_err(|e| JobError::io(&job.out_dir, e))?;
     let (device, queue) = (&gpu.device, &gpu.queue);
     let target = Offscreen::new(device, job.size);
@@ -113,7 +128,6 @@ pub fn render_path(
         full = Some(r);
     }
     let mut refiner = Refiner::new(h, job.settings);
-    let frames = (path.duration() * job.fps).floor() as usize + 1;
     let mut records = Vec::with_capacity(frames);
     let mut kept = Vec::new();
     let mut worst: Option<(f64, usize, [image::RgbaImage; 2])> = None;
@@ -316,6 +330,10 @@ pub enum JobError {
     Render(#[from] RenderError),
     #[error("{0}: {1}")]
     Io(PathBuf, std::io::Error),
+    #[error(
+        "the path lasts {seconds} s: at {fps} frames a second that is more than the {MAX_FRAMES} frames a render makes; shorten the path or lower --fps"
+    )]
+    TooManyFrames { seconds: f32, fps: f32 },
     #[error("{0}: cannot encode the image: {1}")]
     Image(PathBuf, String),
 }

@@ -4,17 +4,8 @@ use super::features::{CREASE_WEIGHT, DART_WEIGHT};
 use super::quadric::{LocalQuadric, Quadric};
 use glam::{DVec3, Vec3};
 
-#[derive(
-    Clone,
-    Copy,
-    Debug,
-    Default,
-    PartialEq,
-    Eq,
-    clap::ValueEnum,
-    serde::Serialize,
-    serde::Deserialize,
-)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Metric {
     /// Garland–Heckbert quadrics, vertex at the quadric's optimum (seed 003, method 3).
     #[default]

@@ -5,19 +5,92 @@ use super::{NONE, VertexTree};
 use glam::Vec3;
 use std::collections::HashSet;
 
+/// What a tree [`check`] or [`check_cut`] found wrong: the first broken invariant, with the nodes
+/// or triangles involved.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TreeProblem {
+    #[error("the tree has no leaves")]
+    NoLeaves,
+    #[error("{nodes} nodes for {leaves} leaves: a binary tree with one root has {}", 2 * *leaves as u64 - 1)]
+    NodeCount { nodes: usize, leaves: usize },
+    #[error("node {0} has a non-finite or negative value")]
+    BadValue(usize),
+    #[error("leaf {0} has children")]
+    LeafWithChildren(usize),
+    #[error("node {node} has children {s}, {t}: they must be distinct and built before it")]
+    BadChildren { node: usize, s: u32, t: u32 },
+    #[error("node {child} is a child of {node} but names {parent} as its parent")]
+    ChildNamesOtherParent {
+        child: u32,
+        node: usize,
+        parent: u32,
+    },
+    #[error(
+        "error decreases upwards: node {child} has {child_error} under node {node} with {error}"
+    )]
+    ErrorDecreases {
+        child: u32,
+        child_error: f32,
+        node: usize,
+        error: f32,
+    },
+    #[error("the sphere of node {node} does not contain that of its child {child}")]
+    SphereMissesChild { node: usize, child: u32 },
+    #[error("the sphere of node {0} does not contain its own position")]
+    SphereMissesPosition(usize),
+    #[error("the last node {node} must be the root, but has parent {parent}")]
+    LastNotRoot { node: usize, parent: u32 },
+    #[error("node {node} has parent {parent}: every node but the root has a later parent")]
+    BadParent { node: usize, parent: u32 },
+    #[error("node {node} names {parent} as parent, which does not list it as a child")]
+    ParentDisowns { node: usize, parent: u32 },
+    #[error("the triangle groups do not tile the triangle list")]
+    GroupsDoNotTile,
+    #[error("triangle group offsets decrease")]
+    GroupOffsetsDecrease,
+    #[error("triangle {index} {corners:?} is not three distinct leaves")]
+    BadTriangle { index: usize, corners: [u32; 3] },
+    #[error("triangle {index} {corners:?} repeats another in the input")]
+    RepeatedInput { index: usize, corners: [u32; 3] },
+    #[error("triangle {triangle} is still on the front after its node {node}")]
+    LiveAfterNode { triangle: u32, node: u32 },
+    #[error("triangle {triangle} is degenerate after merge {merge} but vanishes only at {node}")]
+    DegenerateEarly {
+        triangle: u32,
+        merge: usize,
+        node: u32,
+    },
+    #[error("triangle {triangle} repeats another after merge {merge}")]
+    RepeatedAfterMerge { triangle: u32, merge: usize },
+    #[error(
+        "triangle {triangle} vanishes at node {node} but is neither degenerate nor coincident there"
+    )]
+    VanishesWithoutCause { triangle: u32, node: usize },
+    #[error(
+        "node {node} lists {expected} vanishing triangles but {found} of them touch its children"
+    )]
+    VanishingCount {
+        node: usize,
+        expected: usize,
+        found: usize,
+    },
+    #[error("the build does not end in one vertex without triangles")]
+    DoesNotEnd,
+}
+
 /// Structure: one binary tree with one root, links consistent, indices in range, triangle groups
 /// tiling the triangle list, finite numbers, errors never decreasing upwards, spheres nested.
-pub fn check(tree: &VertexTree) -> Result<(), String> {
+pub fn check(tree: &VertexTree) -> Result<(), TreeProblem> {
     let n = tree.leaf_count as usize;
     let count = tree.nodes.len();
     if n == 0 {
-        return Err("the tree has no leaves".into());
+        return Err(TreeProblem::NoLeaves);
     }
     if count != 2 * n - 1 {
-        return Err(format!(
-            "{count} nodes for {n} leaves: a binary tree with one root has {}",
-            2 * n - 1
-        ));
+        return Err(TreeProblem::NodeCount {
+            nodes: count,
+            leaves: n,
+        });
     }
     for (u, node) in tree.nodes.iter().enumerate() {
         let finite = node
@@ -29,32 +102,33 @@ pub fn check(tree: &VertexTree) -> Result<(), String> {
             .chain(&node.cone)
             .all(|x| x.is_finite());
         if !finite || !node.error.is_finite() || node.error < 0.0 || node.sphere[3] < 0.0 {
-            return Err(format!("node {u} has a non-finite or negative value"));
+            return Err(TreeProblem::BadValue(u));
         }
         if u < n {
             if node.children != [NONE, NONE] {
-                return Err(format!("leaf {u} has children"));
+                return Err(TreeProblem::LeafWithChildren(u));
             }
         } else {
             let [s, t] = node.children;
             if s == t || s as usize >= u || t as usize >= u {
-                return Err(format!(
-                    "node {u} has children {s}, {t}: they must be distinct and built before it"
-                ));
+                return Err(TreeProblem::BadChildren { node: u, s, t });
             }
             for c in [s, t] {
                 let child = &tree.nodes[c as usize];
                 if child.parent as usize != u {
-                    return Err(format!(
-                        "node {c} is a child of {u} but names {} as its parent",
-                        child.parent
-                    ));
+                    return Err(TreeProblem::ChildNamesOtherParent {
+                        child: c,
+                        node: u,
+                        parent: child.parent,
+                    });
                 }
                 if child.error > node.error {
-                    return Err(format!(
-                        "error decreases upwards: node {c} has {} under node {u} with {}",
-                        child.error, node.error
-                    ));
+                    return Err(TreeProblem::ErrorDecreases {
+                        child: c,
+                        child_error: child.error,
+                        node: u,
+                        error: node.error,
+                    });
                 }
                 let (cu, cc) = (
                     Vec3::from_slice(&node.sphere),
@@ -62,32 +136,22 @@ pub fn check(tree: &VertexTree) -> Result<(), String> {
                 );
                 let slack = 1e-5 * (node.sphere[3] + cu.abs().max_element() + 1e-6);
                 if cu.distance(cc) + child.sphere[3] > node.sphere[3] + slack {
-                    return Err(format!(
-                        "the sphere of node {u} does not contain that of its child {c}"
-                    ));
+                    return Err(TreeProblem::SphereMissesChild { node: u, child: c });
                 }
             }
             if !tree.nodes[u].sphere_contains(node.position()) {
-                return Err(format!(
-                    "the sphere of node {u} does not contain its own position"
-                ));
+                return Err(TreeProblem::SphereMissesPosition(u));
             }
         }
         let p = node.parent;
         if u + 1 == count {
             if p != NONE {
-                return Err(format!(
-                    "the last node {u} must be the root, but has parent {p}"
-                ));
+                return Err(TreeProblem::LastNotRoot { node: u, parent: p });
             }
         } else if p == NONE || p as usize <= u || p as usize >= count {
-            return Err(format!(
-                "node {u} has parent {p}: every node but the root has a later parent"
-            ));
+            return Err(TreeProblem::BadParent { node: u, parent: p });
         } else if !tree.nodes[p as usize].children.contains(&(u as u32)) {
-            return Err(format!(
-                "node {u} names {p} as parent, which does not list it as a child"
-            ));
+            return Err(TreeProblem::ParentDisowns { node: u, parent: p });
         }
     }
     let offsets = &tree.vanish_offsets;
@@ -95,14 +159,17 @@ pub fn check(tree: &VertexTree) -> Result<(), String> {
         || offsets[0] != 0
         || *offsets.last().unwrap_or(&0) as usize != tree.triangles.len()
     {
-        return Err("the triangle groups do not tile the triangle list".into());
+        return Err(TreeProblem::GroupsDoNotTile);
     }
     if offsets.windows(2).any(|w| w[0] > w[1]) {
-        return Err("triangle group offsets decrease".into());
+        return Err(TreeProblem::GroupOffsetsDecrease);
     }
     for (i, t) in tree.triangles.iter().enumerate() {
         if t.iter().any(|&v| v as usize >= n) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            return Err(format!("triangle {i} {t:?} is not three distinct leaves"));
+            return Err(TreeProblem::BadTriangle {
+                index: i,
+                corners: *t,
+            });
         }
     }
     Ok(())
@@ -118,7 +185,7 @@ impl super::Node {
 /// Replays the build order and checks every cut along it: each triangle vanishes exactly at its node
 /// (degenerate there, or coincident with a surviving triangle) and, until then, is neither degenerate
 /// nor a repeat of another triangle; at the end one vertex and no triangle are left.
-pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
+pub fn check_cut(tree: &VertexTree) -> Result<(), TreeProblem> {
     check(tree)?;
     let n = tree.leaf_count as usize;
     let count = tree.nodes.len();
@@ -150,7 +217,10 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
         let mut k = *t;
         k.sort_unstable();
         if !keys.insert(k) {
-            return Err(format!("triangle {i} {t:?} repeats another in the input"));
+            return Err(TreeProblem::RepeatedInput {
+                index: i,
+                corners: *t,
+            });
         }
         for &v in t {
             around[v as usize].push(i as u32);
@@ -181,20 +251,24 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
         for &f in &touched {
             if vanish_node[f as usize] as usize != u {
                 if (vanish_node[f as usize] as usize) < u {
-                    return Err(format!(
-                        "triangle {f} is still on the front after its node {}",
-                        vanish_node[f as usize]
-                    ));
+                    return Err(TreeProblem::LiveAfterNode {
+                        triangle: f,
+                        node: vanish_node[f as usize],
+                    });
                 }
                 let k = key_of(&mut up, f);
                 if k[0] == k[1] || k[1] == k[2] {
-                    return Err(format!(
-                        "triangle {f} is degenerate after merge {u} but vanishes only at {}",
-                        vanish_node[f as usize]
-                    ));
+                    return Err(TreeProblem::DegenerateEarly {
+                        triangle: f,
+                        merge: u,
+                        node: vanish_node[f as usize],
+                    });
                 }
                 if !keys.insert(k) {
-                    return Err(format!("triangle {f} repeats another after merge {u}"));
+                    return Err(TreeProblem::RepeatedAfterMerge {
+                        triangle: f,
+                        merge: u,
+                    });
                 }
             }
         }
@@ -203,9 +277,10 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
             if vanish_node[f as usize] as usize == u {
                 let k = key_of(&mut up, f);
                 if !(k[0] == k[1] || k[1] == k[2] || keys.contains(&k)) {
-                    return Err(format!(
-                        "triangle {f} vanishes at node {u} but is neither degenerate nor coincident there"
-                    ));
+                    return Err(TreeProblem::VanishesWithoutCause {
+                        triangle: f,
+                        node: u,
+                    });
                 }
                 alive[f as usize] = false;
                 vanished += 1;
@@ -213,15 +288,17 @@ pub fn check_cut(tree: &VertexTree) -> Result<(), String> {
         }
         let expected = (tree.vanish_offsets[u - n + 1] - tree.vanish_offsets[u - n]) as usize;
         if vanished != expected {
-            return Err(format!(
-                "node {u} lists {expected} vanishing triangles but {vanished} of them touch its children"
-            ));
+            return Err(TreeProblem::VanishingCount {
+                node: u,
+                expected,
+                found: vanished,
+            });
         }
         let keep: Vec<u32> = touched.into_iter().filter(|&f| alive[f as usize]).collect();
         around[u] = keep;
     }
     if live_vertices != 1 || alive.iter().any(|&a| a) {
-        return Err("the build does not end in one vertex without triangles".into());
+        return Err(TreeProblem::DoesNotEnd);
     }
     Ok(())
 }

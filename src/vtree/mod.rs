@@ -12,7 +12,7 @@ mod extract;
 mod format;
 
 pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build};
-pub use check::{check, check_cut};
+pub use check::{TreeProblem, check, check_cut};
 pub use extract::{Cut, cut_at_bound, cut_at_error, cut_at_merges, cut_at_triangles};
 pub use format::{
     FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, read, read_bytes, to_bytes, write,
@@ -174,4 +174,61 @@ impl VertexTree {
             (hi - lo).length()
         }
     }
+}
+
+impl VertexTree {
+    /// Centre and radius of the box around the leaves (a radius of at least the smallest positive
+    /// float, so that a camera can always stand back from it).
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let leaves = &self.nodes[..self.leaf_count as usize];
+        let lo = leaves
+            .iter()
+            .fold(Vec3::INFINITY, |a, n| a.min(n.position()));
+        let hi = leaves
+            .iter()
+            .fold(Vec3::NEG_INFINITY, |a, n| a.max(n.position()));
+        (
+            (lo + hi) * 0.5,
+            ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),
+        )
+    }
+}
+
+/// Why a model could not be opened as a tree.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error(transparent)]
+    Tree(#[from] FormatError),
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::InputError),
+    #[error("{path}: {source}")]
+    Build {
+        path: std::path::PathBuf,
+        source: BuildError,
+    },
+}
+
+/// Whether `path` names a `.vtree` file (by its extension).
+pub fn is_tree_file(path: &std::path::Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vtree"))
+}
+
+/// A model's tree: read from a `.vtree` file, or built with `options` from a mesh (.obj, .ply, .off,
+/// optionally .xz; cleaned with the default options), reporting `(merges done, merges in all)`.
+/// The command line and the viewer open models through this.
+pub fn load_or_build(
+    path: &std::path::Path,
+    options: &BuildOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<VertexTree, LoadError> {
+    if is_tree_file(path) {
+        return Ok(read(path)?);
+    }
+    let (mesh, _) = crate::mesh::load(path, &crate::mesh::CleanOptions::default())?;
+    let (tree, _) = build(&mesh, options, progress).map_err(|source| LoadError::Build {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(tree)
 }

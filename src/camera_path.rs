@@ -19,6 +19,10 @@ use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+/// The longest path, in seconds (a day): longer ones are a typo, and would ask a render for an
+/// unbounded number of frames.
+pub const MAX_SECONDS: f32 = 86_400.0;
+
 /// Vertical field of view when a keyframe names none.
 pub const DEFAULT_FOV_DEG: f32 = 50.0;
 
@@ -123,8 +127,13 @@ impl CameraPath {
                     "keyframe {i} has neither look_at nor orientation; give one"
                 ));
             }
-            if k.look_at == Some(k.position) {
-                return Err(format!("keyframe {i} looks at its own position"));
+            if let Some(target) = k.look_at {
+                let (target, eye) = (Vec3::from_array(target), Vec3::from_array(k.position));
+                // Relative to the coordinates' size: the direction must survive rounding.
+                let scale = target.abs().max(eye.abs()).max_element();
+                if (target - eye).abs().max_element() <= scale * 1e-6 {
+                    return Err(format!("keyframe {i} looks at its own position"));
+                }
             }
             if let Some(q) = k.orientation
                 && Quat::from_array(q).length() < 1e-6
@@ -144,6 +153,12 @@ impl CameraPath {
                     self.keyframes[i - 1].time
                 ));
             }
+        }
+        if self.duration() > MAX_SECONDS {
+            return Err(format!(
+                "the path lasts {} s; at most {MAX_SECONDS} s (a day) is allowed",
+                self.duration()
+            ));
         }
         Ok(())
     }

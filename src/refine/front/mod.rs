@@ -26,6 +26,9 @@
 //! (removal swaps the last one into the hole), and the blocks written since the last
 //! [`Front::take_dirty`] are reported as ranges.
 
+mod ops;
+mod prefetch;
+
 use super::hierarchy::{Hierarchy, NIL};
 
 /// Node states. A node is `ACTIVE` on the front, `SPLIT` above it, `BELOW` under it.
@@ -327,6 +330,7 @@ pub struct Front {
     candidates: Candidates,
     /// When set, every operation is appended here (`u` for `vsplit(u)`, `!p` for `vunify(p)`), so
     /// that a run can be replayed without the view tests (benchmarks time the operations alone).
+    #[cfg(feature = "trace")]
     pub log: Option<Vec<u32>>,
     /// The capacities of the arrays [`Front::make_room`] looks after when it last touched them.
     touched: [usize; 5],
@@ -362,6 +366,7 @@ impl Clone for Front {
             keyed: with_room(&self.keyed),
             seen: self.seen.clone(),
             candidates: self.candidates.clone(),
+            #[cfg(feature = "trace")]
             log: self.log.clone(),
             // A copy's spare capacity is new memory.
             touched: [0; 5],
@@ -369,6 +374,19 @@ impl Clone for Front {
             unifies: self.unifies,
         }
     }
+}
+
+/// Why a list of nodes is not a cut through the tree (see [`Front::at_cut`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CutError {
+    #[error("node {0} is not in the tree")]
+    NotInTree(u32),
+    #[error("node {0} is listed twice")]
+    ListedTwice(u32),
+    #[error("leaf {0} is under no node of the cut")]
+    LeafUncovered(u32),
+    #[error("node {0} lies under another node of the cut")]
+    Nested(u32),
 }
 
 impl Front {
@@ -395,6 +413,7 @@ impl Front {
             keyed: Vec::new(),
             seen: Seen::new(),
             candidates: Candidates::new(),
+            #[cfg(feature = "trace")]
             log: None,
             touched: [0; 5],
             splits: 0,
@@ -406,14 +425,12 @@ impl Front {
     /// of them), for example a static LOD's (`vtree::cut_at_error` renumbered with
     /// [`Hierarchy::renumbering`]). Reached by splitting down from the root, so its triangles are
     /// exactly those the cut implies.
-    pub fn at_cut(h: &Hierarchy, nodes: &[u32]) -> Result<Front, String> {
+    pub fn at_cut(h: &Hierarchy, nodes: &[u32]) -> Result<Front, CutError> {
         let mut on_cut = vec![false; h.node_count() as usize];
         for &u in nodes {
-            let slot = on_cut
-                .get_mut(u as usize)
-                .ok_or_else(|| format!("node {u} is not in the tree"))?;
+            let slot = on_cut.get_mut(u as usize).ok_or(CutError::NotInTree(u))?;
             if std::mem::replace(slot, true) {
-                return Err(format!("node {u} is listed twice"));
+                return Err(CutError::ListedTwice(u));
             }
         }
         let mut front = Front::new(h);
@@ -423,13 +440,13 @@ impl Front {
                 continue;
             }
             if h.is_leaf(u) {
-                return Err(format!("leaf {u} is under no node of the cut"));
+                return Err(CutError::LeafUncovered(u));
             }
             front.split(h, u);
             stack.extend(h.children(u));
         }
         if let Some(&u) = nodes.iter().find(|&&u| !front.is_active(u)) {
-            return Err(format!("node {u} lies under another node of the cut"));
+            return Err(CutError::Nested(u));
         }
         Ok(front)
     }
@@ -499,154 +516,6 @@ impl Front {
     /// Can `p` unify: both children active?
     pub fn can_unify(&self, h: &Hierarchy, p: u32) -> bool {
         !h.is_leaf(p) && h.children(p).iter().all(|&c| self.is_active(c))
-    }
-
-    /// A hint for the memory system, some visits before `split(u)`: the states and list heads
-    /// of `u` and its children, and the triangles that appear. [`Front::prefetch_lists`] asks for
-    /// the first records once the heads have arrived.
-    pub fn prefetch_split(&self, h: &Hierarchy, u: u32) {
-        let [c0, c1] = h.children(u);
-        for v in [u, c0, c1] {
-            crate::prefetch(&self.state[v as usize]);
-            crate::prefetch(&self.head[v as usize]);
-        }
-        // The appearing triangles (usually two, and 12 bytes each: a third of the time on two
-        // cache lines), and the next node's entry, which ends their range (a quarter of the time on
-        // another line). Neither loaded here: that would stall the visit instead. Asking for the
-        // second triangle and the next entry too took the fly-in's operations from 5.0 to 5.9 M/s.
-        let k = (u - h.leaf_count) as usize;
-        if let Some(next) = h.internal.get(k + 1) {
-            crate::prefetch(next);
-        }
-        let first = h.internal[k].appear as usize;
-        for t in h.triangles.iter().skip(first).take(2) {
-            crate::prefetch(t);
-        }
-        // The records the appearing triangles will take.
-        for &r in self.free_records.iter().rev().take(2) {
-            let rec = &self.records[r as usize];
-            crate::prefetch(&rec.corner);
-            crate::prefetch(&rec.slot);
-        }
-    }
-
-    /// A hint for the memory system, some visits before `unify(p)`: the states and list heads of
-    /// `p` and its children.
-    pub fn prefetch_unify(&self, h: &Hierarchy, p: u32) {
-        let [c0, c1] = h.children(p);
-        for v in [p, c0, c1] {
-            crate::prefetch(&self.state[v as usize]);
-            crate::prefetch(&self.head[v as usize]);
-        }
-    }
-
-    /// The later stages of [`Front::prefetch_split`] and [`Front::prefetch_unify`]: record `hop`
-    /// (0 for the first) of the list around each active one of `nodes`, reached through the
-    /// records that earlier stages asked for.
-    pub fn prefetch_lists(&self, h: &Hierarchy, nodes: &[u32], hop: usize, split: bool) {
-        for (i, &v) in nodes.iter().enumerate() {
-            if !self.is_active(v) {
-                continue;
-            }
-            let mut l = self.head[v as usize];
-            let mut last = None;
-            for at in 0..hop {
-                if l == NIL {
-                    break;
-                }
-                let (r, k) = Self::unlink(l);
-                let rec = &self.records[r as usize];
-                (l, last) = (rec.next[k], Some(rec.slot));
-                if !split && at + 1 == hop {
-                    // The coincidence table's entry for its corners after the unify.
-                    let p = h.parent[v as usize];
-                    let c = rec.corner;
-                    crate::prefetch(self.seen.slot(c[0] ^ c[1] ^ c[2] ^ v ^ p));
-                }
-                if !split && i == 0 && has_corner(rec.corner, nodes[1]) {
-                    // It degenerates in the unify, which takes it out of its third corner's list:
-                    // that list follows this one, some stages behind.
-                    let third = rec.corner[0] ^ rec.corner[1] ^ rec.corner[2] ^ v ^ nodes[1];
-                    self.prefetch_chain(third, hop - at - 1);
-                }
-                if split {
-                    // The corner after v is a candidate for the appearing triangles' outside
-                    // corners (see `Candidates`): the split reads its leaf range, and the list
-                    // head of the one that is.
-                    let w = rec.corner[NEXT[k]];
-                    crate::prefetch(&self.head[w as usize]);
-                    if !h.is_leaf(w) {
-                        crate::prefetch(&h.internal[(w - h.leaf_count) as usize]);
-                    }
-                }
-            }
-            // The drawn triangle of the record the last stage asked for: the operation rewrites it.
-            if let Some(drawn) = last.and_then(|s| self.drawn.indices.get(s as usize)) {
-                crate::prefetch(drawn);
-            }
-            if l != NIL {
-                // Records are 40 bytes: half of them straddle two cache lines.
-                let rec = &self.records[Self::unlink(l).0 as usize];
-                crate::prefetch(&rec.corner);
-                crate::prefetch(&rec.slot);
-            }
-        }
-    }
-
-    /// A hint for the memory system, a few visits before an operation: the ends of the arrays
-    /// every operation reads or writes (the drawn triangles' last slot, the free records' top, the
-    /// scratch lists), which the visits between two operations evict; before a unify, also the
-    /// records of the last drawn triangles.
-    pub fn prefetch_scratch(&self, unify: bool) {
-        if let Some(last) = self.drawn.indices.last() {
-            crate::prefetch(last);
-        }
-        if let Some(last) = self.drawn.slot_record.last() {
-            crate::prefetch(last);
-        }
-        for bits in self.drawn.dirty.iter().step_by(8) {
-            crate::prefetch(bits);
-        }
-        if let Some(top) = self.free_records.last() {
-            crate::prefetch(top);
-        }
-        if unify {
-            // The unify's degenerate triangles (usually two) release their draw slots, the last
-            // drawn triangles move into them, and their records are told (orbit x1.08; a split
-            // releases none, and asking for them there cost 4 %).
-            for &r in self.drawn.slot_record.iter().rev().take(2) {
-                if let Some(rec) = self.records.get(r as usize) {
-                    crate::prefetch(&rec.slot);
-                }
-            }
-        }
-        crate::prefetch_address(self.pending.as_ptr() as usize);
-        crate::prefetch_address(self.dying.as_ptr() as usize);
-        crate::prefetch(&self.candidates.ranges[0]);
-        crate::prefetch(&self.candidates.ranges[5]);
-    }
-
-    /// Record `hop` of the list around `w`, or its head for `hop` 0 (what [`Front::unlink_from`]
-    /// walks).
-    fn prefetch_chain(&self, w: u32, hop: usize) {
-        let Some(head) = self.head.get(w as usize) else {
-            return;
-        };
-        if hop == 0 {
-            crate::prefetch(head);
-            return;
-        }
-        let mut l = *head;
-        for _ in 1..hop {
-            if l == NIL {
-                return;
-            }
-            let (r, k) = Self::unlink(l);
-            l = self.records[r as usize].next[k];
-        }
-        if l != NIL {
-            crate::prefetch(&self.records[Self::unlink(l).0 as usize].next);
-        }
     }
 
     /// Puts the front list in node order: depth-first numbering makes that the order in which nodes
@@ -754,416 +623,8 @@ impl Front {
         self.keyed.reserve(SCRATCH_ROOM);
     }
 
-    fn activate(&mut self, u: u32) {
-        let state = &mut self.state[u as usize];
-        if *state & LISTED == 0 {
-            self.list.push(u);
-        }
-        *state = ACTIVE | LISTED;
-        self.head[u as usize] = NIL;
-        self.active_count += 1;
-    }
-
-    /// Takes `u` off the front; returns the first record around it. Its front list entry stays
-    /// (see [`Front::list`]).
-    fn deactivate(&mut self, u: u32, to: u8) -> u32 {
-        let state = &mut self.state[u as usize];
-        *state = to | (*state & LISTED);
-        self.active_count -= 1;
-        self.head[u as usize]
-    }
-
-    /// A link in a node's triangle list: the record and which of its corners is the node, so that a
-    /// walk goes from record to record without comparing corners (each hop is one load).
-    #[inline]
-    fn link(r: u32, k: usize) -> u32 {
-        debug_assert!(r < 1 << 30, "more than 2^30 live triangles");
-        debug_assert!(k < 3);
-        r << 2 | k as u32
-    }
-
-    #[inline]
-    fn unlink(l: u32) -> (u32, usize) {
-        (l >> 2, (l & 3) as usize)
-    }
-
-    /// The active node standing for `leaf`, which lies outside the subtree of split node `u`, where
-    /// [`Front::outside_corner`] finds none. Two walks find it: up from `u` to an ancestor holding
-    /// the leaf, then down through split nodes; and up from the leaf through nodes below the front.
-    /// The first is short where the front is coarse, the second where it is fine; taking them a step
-    /// each in turn costs the shorter (and their loads, independent of each other, overlap).
-    #[inline]
-    fn find_active_outside(&self, h: &Hierarchy, u: u32, leaf: u32) -> u32 {
-        let mut down = h.parent[u as usize];
-        let mut descending = false;
-        let mut up = leaf;
-        loop {
-            if self.state(up) != BELOW {
-                return up;
-            }
-            up = h.parent[up as usize];
-            if descending {
-                if self.state(down) != SPLIT {
-                    return down;
-                }
-                down = h.child_toward(down, leaf);
-            } else if h.contains(down, leaf) {
-                descending = true;
-            } else {
-                down = h.parent[down as usize];
-            }
-        }
-    }
-
-    /// The active node standing for `leaf`, looked for among the corners of `group` (the live
-    /// triangles around a split, in cache) other than the split's children: first a triangle with
-    /// `leaf` for an input corner (on a manifold, an appearing triangle's neighbours across its
-    /// edges to the outside corner are such), then a corner whose subtree holds `leaf` (the edge
-    /// the appearing triangle was has another triangle on it). Their loads are independent of each
-    /// other, where a walk in the tree waits on every step.
-    #[inline]
-    fn outside_corner(
-        &self,
-        h: &Hierarchy,
-        group: &[u32],
-        children: [u32; 2],
-        leaf: u32,
-    ) -> Option<u32> {
-        let by_input = group.iter().find_map(|&r| {
-            // SAFETY: the group holds ids taken from the operation's lists, see `record`.
-            let rec = unsafe { record(&self.records, r) };
-            let j = rec.input.iter().position(|&x| x == leaf)?;
-            Some(rec.corner[j])
-        });
-        by_input.or_else(|| {
-            group.iter().find_map(|&r| {
-                // SAFETY: as above.
-                let rec = unsafe { record(&self.records, r) };
-                rec.corner.into_iter().find(|&w| {
-                    w != children[0] && w != children[1] && !h.is_leaf(w) && h.contains(w, leaf)
-                })
-            })
-        })
-    }
-
-    /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.
-    pub fn representative(&self, h: &Hierarchy, leaf: u32) -> u32 {
-        let mut w = leaf;
-        while self.state(w) == BELOW {
-            w = h.parent[w as usize];
-        }
-        w
-    }
-
-    fn new_record(&mut self, record: Record) -> u32 {
-        match self.free_records.pop() {
-            Some(r) => {
-                self.records[r as usize] = record;
-                r
-            }
-            None => {
-                self.records.push(record);
-                self.records.len() as u32 - 1
-            }
-        }
-    }
-
-    /// `vsplit(u)`: `u` leaves the front for its two children.
-    pub fn split(&mut self, h: &Hierarchy, u: u32) {
-        debug_assert!(
-            self.can_split(h, u),
-            "split of {u}, which is not an active internal node"
-        );
-        let children = h.children(u);
-        // Leaves below `mid` are the first child's (see `Internal`).
-        let mid = h.internal[(u - h.leaf_count) as usize].mid;
-        let side = |leaf: u32| (leaf >= mid) as usize;
-        let mut l = self.deactivate(u, SPLIT);
-        self.activate(children[0]);
-        self.activate(children[1]);
-        // The children's lists, built here and stored at the end.
-        let mut heads = [NIL; 2];
-        self.pending.clear();
-        // Whether two live triangles may now have the same corners (see `Front::finish`).
-        let mut coincident = false;
-        // The other corners of the triangles around u, with their leaf ranges: the appearing
-        // triangles' outside corners are among them (see `Candidates`).
-        self.candidates.len = 0;
-        // The triangles around u go to the child holding their input corner. Drawn ones are
-        // rewritten at once, while their record is at hand.
-        while l != NIL {
-            let (r, k) = Self::unlink(l);
-            // SAFETY: `l` is a link `Front::link` made (not `NIL`), whose corner is below 3.
-            unsafe { std::hint::assert_unchecked(k < 3) };
-            // SAFETY: `r` comes from a list link, see `record`.
-            let rec = unsafe { record_mut(&mut self.records, r) };
-            debug_assert_eq!(rec.corner[k], u);
-            let next = rec.next[k];
-            let slot = rec.slot;
-            // Around a manifold vertex each neighbour follows u in one triangle (elsewhere the
-            // search below finds the ones missed).
-            self.candidates.add(h, rec.corner[NEXT[k]]);
-            let i = side(rec.input[k]);
-            rec.corner[k] = children[i];
-            rec.next[k] = heads[i];
-            heads[i] = Self::link(r, k);
-            let corners = rec.corner;
-            if slot == HIDDEN {
-                // It had the same corners as another triangle around u, which may have gone to
-                // the other child (looked at below).
-                self.pending.push(r);
-            } else {
-                // SAFETY: `slot` is the slot of a drawn record.
-                unsafe { self.drawn.write(slot, corners) };
-            }
-            l = next;
-        }
-        // A hidden triangle is drawn unless another one with its corners went to the same child.
-        for i in 0..self.pending.len() {
-            let corners = self.records[self.pending[i] as usize].corner;
-            let child = has_corner(corners, children[1]) as usize;
-            coincident |= self.has_coincident(heads[child], self.pending[i]);
-        }
-        // The triangles whose corners u kept together appear: corners 0 and 1 in different
-        // children, corner 2 outside u's subtree. Two of them coincide when they have the same
-        // outside corner; none coincides with another triangle, which has at most one of the
-        // children for a corner.
-        let mut outsides = [NIL; 8];
-        for (n, t) in h.appearing(u).enumerate() {
-            let input = h.triangles[t as usize];
-            let i = side(input[0]);
-            debug_assert_eq!(side(input[1]), 1 - i);
-            let outside = match self.candidates.holding(input[2]) {
-                Some(w) => w,
-                None => {
-                    self.collect_group(&heads);
-                    self.outside_corner(h, &self.group, children, input[2])
-                        .unwrap_or_else(|| self.find_active_outside(h, u, input[2]))
-                }
-            };
-            debug_assert_eq!(outside, self.representative(h, input[2]));
-            let corner = [children[i], children[1 - i], outside];
-            debug_assert!(outside != children[0] && outside != children[1]);
-            match outsides.get_mut(n) {
-                Some(slot) => *slot = outside,
-                None => coincident = true,
-            }
-            let r = self.new_record(Record {
-                corner,
-                next: [heads[i], heads[1 - i], self.head[outside as usize]],
-                input,
-                slot: HIDDEN,
-            });
-            heads[i] = Self::link(r, 0);
-            heads[1 - i] = Self::link(r, 1);
-            self.head[outside as usize] = Self::link(r, 2);
-            self.pending.push(r);
-        }
-        let appeared = h.appearing(u).len().min(outsides.len());
-        coincident |= (1..appeared).any(|n| outsides[..n].contains(&outsides[n]));
-        self.head[children[0] as usize] = heads[0];
-        self.head[children[1] as usize] = heads[1];
-        self.finish(&heads, coincident);
-        self.splits += 1;
-        if let Some(log) = &mut self.log {
-            log.push(u);
-        }
-    }
-
-    /// `vunify(p)`: the two children of `p` leave the front for `p`.
-    pub fn unify(&mut self, h: &Hierarchy, p: u32) {
-        debug_assert!(
-            self.can_unify(h, p),
-            "unify of {p}, whose children are not both active"
-        );
-        let [c0, c1] = h.children(p);
-        let heads = [self.deactivate(c0, BELOW), self.deactivate(c1, BELOW)];
-        self.activate(p);
-        let mut head = NIL;
-        self.pending.clear();
-        self.seen.start();
-        let mut added = 0;
-        for (l, c, other) in [(heads[0], c0, c1), (heads[1], c1, c0)] {
-            let mut l = l;
-            while l != NIL {
-                let (r, k) = Self::unlink(l);
-                // SAFETY: `l` is a link `Front::link` made (not `NIL`), whose corner is below 3.
-                unsafe { std::hint::assert_unchecked(k < 3) };
-                // SAFETY: `r` comes from a list link, see `record`.
-                let rec = unsafe { record_mut(&mut self.records, r) };
-                debug_assert_eq!(rec.corner[k], c);
-                let next = rec.next[k];
-                let slot = rec.slot;
-                if slot == DYING {
-                    // Marked by the first child's walk.
-                } else if has_corner(rec.corner, other) {
-                    // Both children were corners: the triangle degenerates.
-                    self.drawn.release(&mut self.records, r);
-                    self.records[r as usize].slot = DYING;
-                    self.dying.push(r);
-                } else {
-                    rec.corner[k] = p;
-                    rec.next[k] = head;
-                    head = Self::link(r, k);
-                    let corners = rec.corner;
-                    if slot == HIDDEN {
-                        self.pending.push(r);
-                    } else {
-                        // SAFETY: `slot` is the slot of a drawn record.
-                        unsafe { self.drawn.write(slot, corners) };
-                    }
-                    self.seen.add(&self.records, r, corners, added);
-                    added += 1;
-                }
-                l = next;
-            }
-        }
-        self.head[p as usize] = head;
-        // The degenerated triangles leave their third corner's list (which the look-ahead asked
-        // for, see `Front::prefetch_lists`) and free their records.
-        for i in 0..self.dying.len() {
-            let r = self.dying[i];
-            // SAFETY: `r` comes from a list link, see `record`.
-            let c = unsafe { record(&self.records, r) }.corner;
-            self.unlink_from(c[0] ^ c[1] ^ c[2] ^ c0 ^ c1, r);
-            self.free_records.push(r);
-        }
-        self.dying.clear();
-        self.finish(&[head], self.seen.coincident);
-        self.unifies += 1;
-        if let Some(log) = &mut self.log {
-            log.push(!p);
-        }
-    }
-
-    /// Whether the list from link `l` holds a record other than `r` with `r`'s corners.
-    fn has_coincident(&self, mut l: u32, r: u32) -> bool {
-        let corners = key(self.records[r as usize].corner);
-        while l != NIL {
-            let (q, k) = Self::unlink(l);
-            let rec = &self.records[q as usize];
-            if q != r && key(rec.corner) == corners {
-                return true;
-            }
-            l = rec.next[k];
-        }
-        false
-    }
-
-    /// The records in `lists` (each a list head), once each, into `group`: an operation's group,
-    /// collected only when it is needed.
-    #[cold]
-    fn collect_group(&mut self, lists: &[u32]) {
-        self.group.clear();
-        for &l in lists {
-            let mut l = l;
-            while l != NIL {
-                let (r, k) = Self::unlink(l);
-                self.group.push(r);
-                l = self.records[r as usize].next[k];
-            }
-        }
-        // An appearing triangle is in both children's lists.
-        self.group.sort_unstable();
-        self.group.dedup();
-    }
-
-    /// The end of an operation whose new nodes head `lists`. The triangles in them are every live
-    /// triangle that got new corners (so every triangle coincident with one of them is there
-    /// too), drawn ones already rewritten; `pending` holds those of them to draw (a split's
-    /// appearing triangles and hidden ones that no longer coincide with another). Unless the
-    /// operation found that two of them may now coincide (4 % of operations), they are drawn;
-    /// otherwise [`Front::settle`] picks one of each set.
-    fn finish(&mut self, lists: &[u32], coincident: bool) {
-        if coincident {
-            self.collect_group(lists);
-            let group = std::mem::take(&mut self.group);
-            self.settle(&group);
-            self.group = group;
-        } else {
-            for i in 0..self.pending.len() {
-                let r = self.pending[i];
-                self.drawn.draw(&mut self.records[r as usize], r);
-            }
-        }
-        #[cfg(debug_assertions)]
-        {
-            // Exactly one triangle of each set of coincident ones is drawn.
-            self.collect_group(lists);
-            let mut keyed: Vec<(u128, bool)> = (self.group.iter())
-                .map(|&r| {
-                    let rec = &self.records[r as usize];
-                    (key(rec.corner), rec.slot != HIDDEN)
-                })
-                .collect();
-            keyed.sort_unstable();
-            for run in keyed.chunk_by(|a, b| a.0 == b.0) {
-                let drawn = run.iter().filter(|x| x.1).count();
-                assert_eq!(
-                    drawn,
-                    1,
-                    "{} coincident triangles, {drawn} drawn",
-                    run.len()
-                );
-            }
-        }
-    }
-
-    /// Of each set of coincident triangles in `group` one is drawn (one already drawn, if any, to
-    /// keep slots still) and the others are released; the rest of the group is drawn.
-    #[cold]
-    fn settle(&mut self, group: &[u32]) {
-        let mut keyed = std::mem::take(&mut self.keyed);
-        keyed.clear();
-        keyed.extend(
-            group
-                .iter()
-                .map(|&r| (key(self.records[r as usize].corner), r)),
-        );
-        keyed.sort_unstable();
-        for run in keyed.chunk_by(|a, b| a.0 == b.0) {
-            let keeper = run
-                .iter()
-                .find(|&&(_, r)| self.records[r as usize].slot != HIDDEN)
-                .unwrap_or(&run[0])
-                .1;
-            for &(_, r) in run {
-                if r != keeper {
-                    self.drawn.release(&mut self.records, r);
-                }
-            }
-            self.drawn.draw(&mut self.records[keeper as usize], keeper);
-        }
-        self.keyed = keyed;
-    }
-
-    /// Takes record `r` out of active node `w`'s list.
-    fn unlink_from(&mut self, w: u32, r: u32) {
-        // The link that points at the current record: the head, or a record's `next`.
-        let mut at: Option<(u32, usize)> = None;
-        let mut l = self.head[w as usize];
-        while l != NIL {
-            let (q, k) = Self::unlink(l);
-            // SAFETY: `l` is a link `Front::link` made (not `NIL`), whose corner is below 3, and
-            // `q` comes from it, see `record`.
-            unsafe { std::hint::assert_unchecked(k < 3) };
-            // SAFETY: as above.
-            let next = unsafe { record(&self.records, q) }.next[k];
-            if q == r {
-                match at {
-                    None => self.head[w as usize] = next,
-                    // SAFETY: as above.
-                    Some((q, j)) => unsafe { record_mut(&mut self.records, q) }.next[j] = next,
-                }
-                return;
-            }
-            at = Some((q, k));
-            l = next;
-        }
-        debug_assert!(false, "record {r} is not in the list of node {w}");
-    }
-
     /// Applies a [`Front::log`] recorded from the same starting front.
+    #[cfg(feature = "trace")]
     pub fn replay(&mut self, h: &Hierarchy, log: &[u32]) {
         for &op in log {
             if op < h.node_count() {

@@ -1,0 +1,187 @@
+//! `vunify build`: a mesh's vertex tree, written as `.vtree`.
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vunify::mesh::{self, CleanOptions};
+use vunify::simplify::Metric;
+use vunify::simplify::metric::HybridWeights;
+use vunify::vtree::{self, BuildOptions, Schedule};
+
+#[derive(Args)]
+pub struct BuildArgs {
+    /// Input mesh or scene: .obj (objects and groups become parts), .ply, .off; may end in .xz.
+    pub input: PathBuf,
+    /// Output .vtree file (written atomically). Default: the input's name with .vtree, in the current directory.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// How merges are priced: qem (quadric error, optimal position), qem-midpoint, edge-length, or
+    /// hybrid (Tao et al.'s w1·squared distance + w2·feature error).
+    #[arg(long, value_enum, default_value_t = BuildOptions::default().metric)]
+    metric: Metric,
+    /// Merge order: passes (default; non-overlapping cheapest merges per pass, as meshoptimizer does)
+    /// or greedy (strictly the cheapest pair each time, the paper's algorithm; slower).
+    #[arg(long, value_enum, default_value_t = BuildOptions::default().schedule)]
+    schedule: Schedule,
+    /// Vertices without an edge between them are merge candidates when closer than this fraction of
+    /// the bounding-box diagonal (0 turns such pairs off until separate parts must be joined).
+    #[arg(long, default_value_t = BuildOptions::default().pair_distance)]
+    pair_distance: f32,
+    /// At most this many nearest non-edge partners per vertex.
+    #[arg(long, default_value_t = BuildOptions::default().max_pairs_per_vertex)]
+    max_pairs: usize,
+    /// The paper's θ, degrees: an edge whose dihedral angle is below it is a sharp feature (180 = flat).
+    #[arg(long, default_value_t = BuildOptions::default().sharp_angle_deg)]
+    sharp_angle: f32,
+    /// Hybrid metric: weight w1 of the squared distance (in mean edge lengths).
+    #[arg(long, default_value_t = HybridWeights::default().distance)]
+    w_dist: f32,
+    /// Hybrid metric: weight w2 of the feature error (Tables 1 and 2).
+    #[arg(long, default_value_t = HybridWeights::default().feature)]
+    w_feature: f32,
+    /// Keep vertices with identical positions apart (welding is on by default).
+    #[arg(long)]
+    no_weld: bool,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+impl BuildArgs {
+    fn options(&self) -> Result<BuildOptions> {
+        if !(self.pair_distance >= 0.0 && self.pair_distance.is_finite()) {
+            bail!(
+                "--pair-distance must be a non-negative number, got {}",
+                self.pair_distance
+            );
+        }
+        if !(self.sharp_angle > 0.0 && self.sharp_angle <= 180.0) {
+            bail!(
+                "--sharp-angle must be in (0, 180] degrees, got {}",
+                self.sharp_angle
+            );
+        }
+        Ok(BuildOptions {
+            metric: self.metric,
+            schedule: self.schedule,
+            pair_distance: self.pair_distance,
+            max_pairs_per_vertex: self.max_pairs,
+            sharp_angle_deg: self.sharp_angle,
+            hybrid: HybridWeights {
+                distance: self.w_dist,
+                feature: self.w_feature,
+            },
+        })
+    }
+}
+
+pub fn run(args: BuildArgs) -> Result<()> {
+    let options = args.options()?;
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.input));
+    let clean = CleanOptions {
+        weld: !args.no_weld,
+    };
+    build_and_write(&args.input, &output, &options, &clean, args.json)
+}
+
+/// The input's file name with its mesh extension (and any `.xz`) replaced by `.vtree`.
+fn default_output(input: &Path) -> PathBuf {
+    let name = input
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let stem = name.trim_end_matches(".xz");
+    let stem = stem.rsplit_once('.').map_or(stem, |(s, _)| s);
+    PathBuf::from(format!("{stem}.vtree"))
+}
+
+/// Loads `input`, builds its tree with a progress bar, writes it atomically to `output` and prints
+/// a summary (text or JSON).
+pub fn build_and_write(
+    input: &Path,
+    output: &Path,
+    options: &BuildOptions,
+    clean: &CleanOptions,
+    json: bool,
+) -> Result<()> {
+    let t0 = Instant::now();
+    let (mesh, cleaned) = mesh::load(input, clean)?;
+    let load_secs = t0.elapsed().as_secs_f64();
+    let bar = super::progress_bar(
+        mesh.vertex_count().saturating_sub(1) as u64,
+        "{msg} [{bar:40}] {pos}/{len} merges ({eta})",
+    );
+    bar.set_message("building");
+    let (tree, stats) = vtree::build(&mesh, options, &mut |done, _| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    vtree::write(&tree, output).with_context(|| format!("cannot write {}", output.display()))?;
+    let peak = peak_memory_bytes();
+    if json {
+        let json = serde_json::json!({
+            "input": input, "output": output, "metric": options.metric.name(),
+            "vertices": mesh.vertex_count(), "triangles": mesh.triangle_count(), "parts": mesh.parts.len(),
+            "cleaned": cleaned, "build": stats, "load_seconds": load_secs, "peak_memory_bytes": peak,
+        });
+        println!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
+    println!("input      {}", input.display());
+    println!(
+        "           {} vertices, {} triangles, {} part(s)",
+        mesh.vertex_count(),
+        mesh.triangle_count(),
+        mesh.parts.len()
+    );
+    println!(
+        "cleaned    {} welded, {} unused vertices dropped; {} degenerate and {} duplicate faces dropped",
+        cleaned.welded_vertices,
+        cleaned.unused_vertices,
+        cleaned.degenerate_faces,
+        cleaned.duplicate_faces
+    );
+    println!(
+        "metric     {}, {:?} schedule ({} rounds, {} pairs priced)",
+        options.metric.name(),
+        options.schedule,
+        stats.rounds,
+        stats.pricings
+    );
+    println!(
+        "tree       {} nodes ({} leaves), one root, depth {}",
+        stats.nodes, stats.leaves, stats.depth
+    );
+    println!(
+        "pairs      {} feature edges, {} close non-edge pairs, {} flip deferrals, {} widenings",
+        stats.feature_edges, stats.proximity_pairs, stats.flip_deferrals, stats.widenings
+    );
+    println!(
+        "time       load {load_secs:.2} s, build {:.2} s",
+        stats.seconds
+    );
+    let p = &stats.phases;
+    println!(
+        "phases     features {:.2} s, close pairs {:.2} s, leaves {:.2} s, pricing {:.2} s, merging {:.2} s, re-pricing {:.2} s",
+        p.features, p.close_pairs, p.leaves, p.pricing, p.merging, p.repricing
+    );
+    if let Some(p) = peak {
+        println!(
+            "memory     process peak {:.1} MiB, input included ({:.0} bytes per input triangle)",
+            p as f64 / 1048576.0,
+            p as f64 / mesh.triangle_count() as f64
+        );
+    }
+    println!("wrote      {}", output.display());
+    Ok(())
+}
+
+/// Peak resident memory of this process so far (Linux `VmHWM`), in bytes.
+fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}

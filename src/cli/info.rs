@@ -1,0 +1,68 @@
+//! `vunify info`: what a `.vtree` holds.
+
+use anyhow::Result;
+use clap::Args;
+use std::path::PathBuf;
+use vunify::vtree;
+
+#[derive(Args)]
+pub struct InfoArgs {
+    /// The .vtree file.
+    file: PathBuf,
+    /// Also replay the build order and check every cut (slower).
+    #[arg(long)]
+    check: bool,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: InfoArgs) -> Result<()> {
+    let InfoArgs { file, check, json } = args;
+    let tree = vtree::read(&file)?;
+    if check {
+        vtree::check_cut(&tree).map_err(|e| {
+            anyhow::anyhow!("{}: the build order is inconsistent: {e}", file.display())
+        })?;
+    }
+    let root = &tree.nodes[tree.root() as usize];
+    if json {
+        let j = serde_json::json!({
+            "file": file, "leaves": tree.leaf_count, "nodes": tree.nodes.len(), "triangles": tree.triangles.len(),
+            "depth": tree.depth(), "metric": tree.metric.name(), "colors": tree.has_colors, "normals": tree.has_normals,
+            "parts": tree.parts, "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
+        });
+        println!("{}", serde_json::to_string_pretty(&j)?);
+        return Ok(());
+    }
+    println!("file       {}", file.display());
+    println!(
+        "tree       {} nodes ({} leaves), depth {}, metric {}",
+        tree.nodes.len(),
+        tree.leaf_count,
+        tree.depth(),
+        tree.metric.name()
+    );
+    println!("triangles  {}", tree.triangles.len());
+    println!(
+        "attributes colours: {}, normals: {}",
+        tree.has_colors, tree.has_normals
+    );
+    println!(
+        "root       error {:.4} ({:.4} % of the diagonal {:.4})",
+        root.error,
+        100.0 * root.error / tree.diagonal().max(f32::MIN_POSITIVE),
+        tree.diagonal()
+    );
+    println!("parts      {}", tree.parts.len());
+    for p in tree.parts.iter().take(20) {
+        println!("           {:>8} triangles  {}", p.triangles, p.name);
+    }
+    if tree.parts.len() > 20 {
+        println!("           ... and {} more", tree.parts.len() - 20);
+    }
+    if check {
+        println!("check      every cut of the build order is a valid mesh");
+    }
+    Ok(())
+}

@@ -1,0 +1,118 @@
+//! The `vunify` command line: one file per command. Each command's clap struct converts into the
+//! library's option types (the defaults live there, once); library errors are typed, and here, at
+//! the application edge, they become `anyhow` messages for the user.
+
+mod build;
+mod default_job;
+mod extract;
+mod info;
+mod measure;
+mod path;
+mod render;
+mod view;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "vunify",
+    version,
+    about = "View-dependent level of detail for triangle meshes.",
+    long_about = "\
+View-dependent level of detail for triangle meshes.
+
+vunify builds a binary vertex tree of vertex merges (vunify / vsplit, which may join any two vertices
+and so change topology) from a mesh or a whole scene, stores it as a .vtree file, and takes static
+levels of detail from it, refines it view-dependently every frame and renders it with wgpu. Run without
+a command, it builds the tree of the bundled default model and opens the viewer on it; with no display,
+it renders the default camera path headless instead."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build the vertex tree of a mesh (.obj, .ply or .off, optionally .xz) and write it as .vtree.
+    Build(build::BuildArgs),
+    /// Print what a .vtree file holds.
+    Info(info::InfoArgs),
+    /// Take a static level of detail from a .vtree and write it as OBJ.
+    Extract(extract::ExtractArgs),
+    /// Write a camera path (JSON) around a model: an orbit, a fly-in (far to near, as in Tao et al.'s
+    /// Fig. 6) or a flythrough (close past and through the model).
+    Path(path::PathArgs),
+    /// Render a camera path over a model headless (PNG frames, stats.csv, a contact sheet); with
+    /// --compare, measure the LOD against the full mesh frame by frame.
+    Render(render::RenderArgs),
+    /// Fly through a model in the interactive viewer (winit + egui); with no display, render the
+    /// default camera path headless instead.
+    View(view::ViewArgs),
+    /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling).
+    Measure(measure::MeasureArgs),
+}
+
+/// Parses the command line and runs the command.
+pub fn run() -> Result<()> {
+    match Cli::parse().command {
+        None => default_job::run(),
+        Some(Command::Build(args)) => build::run(args),
+        Some(Command::Info(args)) => info::run(args),
+        Some(Command::Extract(args)) => extract::run(args),
+        Some(Command::Path(args)) => path::run(args),
+        Some(Command::Render(args)) => render::run(args),
+        Some(Command::View(args)) => view::run(args),
+        Some(Command::Measure(args)) => measure::run(args),
+    }
+}
+
+/// `WIDTHxHEIGHT`, each between 1 and 16384.
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&x| (1..=16384).contains(&x))
+            .ok_or_else(|| format!("{v:?} is not a size between 1 and 16384"))
+    };
+    Ok([parse(w)?, parse(h)?])
+}
+
+/// Whether a window can open: `DISPLAY` or `WAYLAND_DISPLAY` is set.
+fn has_display() -> bool {
+    ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()))
+}
+
+/// A progress bar over `len` steps with `template` around the bar.
+fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// A model's tree, read from a .vtree or built from a mesh with the default options, with a progress
+/// bar while it builds.
+fn load_tree(model: &std::path::Path) -> Result<vunify::vtree::VertexTree> {
+    let bar = progress_bar(0, "building the tree [{bar:40}] {pos}/{len} merges");
+    let tree = vunify::vtree::load_or_build(
+        model,
+        &vunify::vtree::BuildOptions::default(),
+        &mut |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )?;
+    bar.finish_and_clear();
+    Ok(tree)
+}

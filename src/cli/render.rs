@@ -1,0 +1,180 @@
+//! `vunify render`: a camera path over a model, rendered headless.
+
+use anyhow::Result;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The model: a .vtree opens at once; a mesh (.obj, .ply, .off, optionally .xz) is built first.
+    pub model: PathBuf,
+    /// Camera path JSON (see `vunify path`); default: an orbit of the model.
+    #[arg(long)]
+    path: Option<PathBuf>,
+    /// Output directory for frames, stats.csv and the contact sheet.
+    #[arg(long, default_value = "out/render")]
+    pub out: PathBuf,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x768", value_parser = super::parse_size)]
+    size: [u32; 2],
+    /// Screen-space error tolerance τ in pixels.
+    #[arg(long, default_value_t = 1.0, conflicts_with = "budget")]
+    tau: f32,
+    /// Triangle budget: the best screen-space error under this many triangles (instead of --tau).
+    #[arg(long)]
+    budget: Option<u32>,
+    /// Write every K-th frame as PNG (statistics cover every frame).
+    #[arg(long, default_value_t = 10)]
+    pub every: usize,
+    /// Frames per second of path time.
+    #[arg(long, default_value_t = 30.0)]
+    fps: f32,
+    /// Also render the full-resolution mesh each frame: PSNR and share of differing pixels per frame,
+    /// and the worst frame side by side with its difference.
+    #[arg(long)]
+    compare: bool,
+    /// Draw triangle edges over the surface.
+    #[arg(long)]
+    wireframe: bool,
+    /// Screen-space test on geometry alone: leave out the shading term, which also refines where
+    /// sub-pixel bumps turn normals across many pixels (fewer triangles, less faithful shading).
+    #[arg(long)]
+    geometric: bool,
+    /// Screen-space test on the strict deviation bound instead of the measured error: no point of
+    /// the surface drawn more than τ pixels from where it belongs, with many more triangles.
+    #[arg(long)]
+    strict: bool,
+    /// Surface colours: auto (vertex colours if any, else grey), shaded, depth (tree depth) or error
+    /// (projected error: blue 0, green τ, red 2τ).
+    #[arg(long, value_enum, default_value = "auto")]
+    color_by: ColorChoice,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ColorChoice {
+    Auto,
+    Shaded,
+    Depth,
+    Error,
+}
+
+impl RenderArgs {
+    /// The arguments of `vunify render MODEL`, with every default as `--help` states it.
+    pub fn defaults_for(model: PathBuf) -> RenderArgs {
+        use clap::FromArgMatches;
+        let command = <RenderArgs as Args>::augment_args(clap::Command::new("render"));
+        let matches = command.get_matches_from([std::ffi::OsString::from("render"), model.into()]);
+        RenderArgs::from_arg_matches(&matches).expect("the defaults parse")
+    }
+}
+
+#[cfg(not(feature = "render"))]
+pub fn run(_: RenderArgs) -> Result<()> {
+    anyhow::bail!(
+        "this vunify was built without the `render` feature: rebuild with default features to render"
+    )
+}
+
+#[cfg(feature = "render")]
+pub fn run(args: RenderArgs) -> Result<()> {
+    use anyhow::bail;
+    use vunify::refine::{Hierarchy, Mode, Settings};
+    use vunify::render::{ColorBy, DrawOptions, Gpu, job};
+    if !(args.tau > 0.0 && args.tau.is_finite()) {
+        bail!(
+            "--tau must be a positive number of pixels, got {}",
+            args.tau
+        );
+    }
+    if !(args.fps > 0.0 && args.fps <= 1000.0) {
+        bail!("--fps must be positive and at most 1000, got {}", args.fps);
+    }
+    let tree = super::load_tree(&args.model)?;
+    let path = match &args.path {
+        Some(p) => vunify::camera_path::CameraPath::load(p)?,
+        None => super::path::camera_path(super::path::PathKind::Orbit, &tree, 10.0),
+    };
+    let gpu = Gpu::headless()?;
+    let h = Hierarchy::new(&tree);
+    let settings = Settings {
+        tolerance_px: args.tau,
+        mode: args.budget.map_or(Mode::Tolerance, Mode::Budget),
+        tests: vunify::refine::Tests {
+            shading: !args.geometric,
+            strict: args.strict,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let draw = DrawOptions {
+        color_by: match args.color_by {
+            ColorChoice::Auto => ColorBy::Auto,
+            ColorChoice::Shaded => ColorBy::Shaded,
+            ColorChoice::Depth => ColorBy::Depth,
+            ColorChoice::Error => ColorBy::Error,
+        },
+        wireframe: args.wireframe,
+        tolerance_px: args.tau,
+        ..Default::default()
+    };
+    let job = job::RenderJob {
+        size: args.size,
+        settings,
+        draw,
+        fps: args.fps,
+        every: args.every.max(1),
+        compare: args.compare,
+        out_dir: args.out.clone(),
+    };
+    println!(
+        "rendering {} on {} at {}x{}",
+        args.model.display(),
+        gpu.adapter_name(),
+        args.size[0],
+        args.size[1]
+    );
+    let bar = super::progress_bar(0, "frames [{bar:40}] {pos}/{len} ({eta})");
+    let summary = job::render_path(&gpu, &h, &path, &job, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    print_summary(&summary, &args.out);
+    Ok(())
+}
+
+#[cfg(feature = "render")]
+fn print_summary(s: &vunify::render::job::Summary, out: &std::path::Path) {
+    println!("frames     {} on {}", s.frames, s.adapter);
+    println!(
+        "triangles  mean {:.0}, max {}{}",
+        s.triangles_mean,
+        s.triangles_max,
+        if s.full_triangles > 0 {
+            format!(" (full mesh {})", s.full_triangles)
+        } else {
+            String::new()
+        }
+    );
+    println!(
+        "refine     median {:.3} ms, p95 {:.3} ms; upload {:.0} bytes a frame",
+        s.refine_ms_median, s.refine_ms_p95, s.upload_bytes_mean
+    );
+    if let Some(g) = s.gpu_ms_median {
+        println!("gpu        median {g:.2} ms a frame");
+    }
+    if let (Some(mean), Some(min), Some(d), Some(dmax)) = (
+        s.psnr_db_mean,
+        s.psnr_db_min,
+        s.differing_mean,
+        s.differing_max,
+    ) {
+        println!(
+            "vs full    PSNR mean {mean:.1} dB, worst {min:.1} dB (frame {}); pixels off by > 8/255: mean {:.3} %, max {:.3} %",
+            s.worst_frame.unwrap_or(0),
+            d * 100.0,
+            dmax * 100.0
+        );
+    }
+    println!("wrote      {} files in {}", s.written.len(), out.display());
+}

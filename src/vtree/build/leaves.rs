@@ -1,0 +1,128 @@
+//! The input's vertices as leaves, and their close non-edge pairs.
+
+use super::NONE;
+use super::node::cone_of;
+use crate::mesh::Mesh;
+use crate::simplify::collapse::Collapser;
+use crate::simplify::pairs::close_pairs;
+use crate::vtree::Node;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// The leaves: each input vertex's node, with a sphere over its 1-ring (so that it covers the
+/// triangles around the leaf) and a cone of those faces; and its mass, a third of their area.
+/// Each face's normal is computed once, not once a corner.
+pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>) {
+    let n = mesh.positions.len();
+    let faces: Vec<(Vec3, f32)> = mesh
+        .triangles
+        .par_iter()
+        .map(|t| {
+            let [a, b, d] = t.map(|w| mesh.positions[w as usize]);
+            let cross = (b - a).cross(d - a);
+            let len = cross.length();
+            (if len > 0.0 { cross / len } else { Vec3::ZERO }, len / 6.0)
+        })
+        .collect();
+    let mut nodes: Vec<Node> = Vec::with_capacity(2 * n - 1);
+    let mut mass: Vec<f32> = Vec::with_capacity(n);
+    (0..n as u32)
+        .into_par_iter()
+        .map(|v| {
+            let p = mesh.positions[v as usize];
+            let (mut radius, mut area, mut nsum) = (0.0f32, 0.0f32, Vec3::ZERO);
+            for (f, c) in collapser.faces_of(v) {
+                let (unit, third) = faces[f as usize];
+                area += third;
+                nsum += unit * third;
+                for w in c {
+                    radius = radius.max(p.distance(mesh.positions[w as usize]));
+                }
+            }
+            let cone = cone_of(
+                collapser
+                    .faces_of(v)
+                    .map(|(f, _)| faces[f as usize].0)
+                    .filter(|n| *n != Vec3::ZERO),
+            );
+            let normal = mesh
+                .normals
+                .as_ref()
+                .map_or(nsum.normalize_or_zero(), |ns| {
+                    ns[v as usize].normalize_or_zero()
+                });
+            let color = mesh.colors.as_ref().map_or(Vec3::ONE, |cs| cs[v as usize]);
+            let node = Node {
+                position: p.to_array(),
+                error: 0.0,
+                color: color.to_array(),
+                parent: NONE,
+                normal: normal.to_array(),
+                children: [NONE, NONE],
+                sphere: [p.x, p.y, p.z, radius],
+                cone: [cone.axis.x, cone.axis.y, cone.axis.z, cone.cos_angle],
+            };
+            (node, area)
+        })
+        .unzip_into_vecs(&mut nodes, &mut mass);
+    drop(faces);
+    (nodes, mass)
+}
+
+/// Close non-edge pairs: vertices closer than `distance` and outside each other's 2-ring, at most
+/// `per_vertex` per vertex (`edges`: the mesh's edges).
+pub(super) fn close_non_edge_pairs(
+    positions: &[Vec3],
+    edges: &[(u32, u32)],
+    distance: f32,
+    per_vertex: usize,
+) -> Vec<(u32, u32)> {
+    let adjacency = Adjacency::new(positions.len(), edges);
+    let points: Vec<(u32, Vec3)> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (i as u32, *p))
+        .collect();
+    close_pairs(&points, distance, per_vertex, |i, j| {
+        !adjacency.within_two_rings(i, j)
+    })
+}
+/// Compressed vertex adjacency, for the 2-ring test of close pairs.
+pub(super) struct Adjacency {
+    pub(super) offsets: Vec<u32>,
+    pub(super) neighbors: Vec<u32>,
+}
+
+impl Adjacency {
+    pub(super) fn new(n: usize, edges: &[(u32, u32)]) -> Adjacency {
+        let mut offsets = vec![0u32; n + 1];
+        for &(a, b) in edges {
+            offsets[a as usize + 1] += 1;
+            offsets[b as usize + 1] += 1;
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut neighbors = vec![0u32; offsets[n] as usize];
+        for &(a, b) in edges {
+            neighbors[fill[a as usize] as usize] = b;
+            fill[a as usize] += 1;
+            neighbors[fill[b as usize] as usize] = a;
+            fill[b as usize] += 1;
+        }
+        for i in 0..n {
+            neighbors[offsets[i] as usize..offsets[i + 1] as usize].sort_unstable();
+        }
+        Adjacency { offsets, neighbors }
+    }
+
+    pub(super) fn of(&self, v: u32) -> &[u32] {
+        &self.neighbors[self.offsets[v as usize] as usize..self.offsets[v as usize + 1] as usize]
+    }
+
+    pub(super) fn within_two_rings(&self, a: u32, b: u32) -> bool {
+        let ring = self.of(a);
+        ring.binary_search(&b).is_ok() || ring.iter().any(|&k| self.of(k).binary_search(&b).is_ok())
+    }
+}

@@ -1,0 +1,468 @@
+//! The offline builder (seed 001 §2.3): merge the cheapest candidate pair, again and again, until one
+//! vertex is left, recording each merge as a tree node.
+//!
+//! 1. classify edges, build quadrics (with constraint planes on boundaries and creases);
+//! 2. candidates: every edge, and every close non-edge pair outside each other's 2-ring;
+//! 3. merge in order of cost, skipping merges that would flip a triangle while there are others;
+//! 4. record the node: position, attributes, bounds, error, and the triangles that vanish;
+//! 5. when no candidate is left but several vertices are (separate parts, each collapsed to a point),
+//!    pair the survivors within a doubling radius and go on: the result is one tree with one root.
+//!
+//! Step 3 has two schedules. [`Schedule::Greedy`] is the paper's: one priority queue, always the single
+//! cheapest pair. [`Schedule::Passes`] (the default) is meshoptimizer's: each pass prices every
+//! candidate at once, sorts them, and merges the cheapest ones that share no vertex, up to a bounded
+//! share of the mesh and of the cost range. Priced candidates are never stale within a pass, so the
+//! order is greedy up to that bound, and the work is sorting and streaming arrays instead of chasing a
+//! heap through cache misses: several times faster at the same quality (see BENCHMARKS.md).
+//!
+//! The steps, one file each: [`leaves`] (the input's vertices as leaves, their close pairs),
+//! [`pricing`] (candidates priced in parallel), [`passes`] and [`greedy`] (the two schedules),
+//! [`finisher`] (a pass's nodes completed on a second thread), [`node`] (a node's attributes, bounds
+//! and error), [`queue`] (the candidates as the schedules hold them).
+
+mod finisher;
+mod greedy;
+mod leaves;
+mod node;
+mod passes;
+mod pricing;
+mod queue;
+
+use super::{NONE, Node, PartInfo, VertexTree};
+use crate::mesh::Mesh;
+use crate::simplify::Metric;
+use crate::simplify::collapse::Collapser;
+use crate::simplify::features;
+use crate::simplify::metric::{Candidate, HybridWeights, PairEnd, Pricing};
+use crate::simplify::pairs::close_pairs;
+use glam::Vec3;
+use node::{Merged, Pending, SAMPLES, Samples, fan_of, finish_node};
+use queue::{Entry, PENALIZED, SLOT, penalized_key};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// How merges are ordered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Schedule {
+    /// Passes of non-overlapping cheapest merges (meshoptimizer's scheme).
+    #[default]
+    Passes,
+    /// Strictly the cheapest pair each time, from one priority queue (the paper's algorithm).
+    Greedy,
+}
+
+/// Builder settings; `Default` gives the documented defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildOptions {
+    /// How merges are priced and placed. Default: `Qem`.
+    pub metric: Metric,
+    /// Default: `Passes`.
+    pub schedule: Schedule,
+    /// Non-edge pairs closer than this fraction of the bounding-box diagonal are candidates.
+    /// Default 0.001: bridges the seams and hairline gaps between the parts of scanned and CAD scenes;
+    /// wider radii flood dense scans with pairs (0.005 gives the dragon 625k pairs and doubles the build
+    /// time) while separate parts are joined anyway once each has collapsed. 0 disables them.
+    pub pair_distance: f32,
+    /// At most this many nearest non-edge partners per vertex. Default 2: close pairs matter where
+    /// two sheets meet, and there each vertex needs only its nearest few across the gap.
+    pub max_pairs_per_vertex: usize,
+    /// Seed 001's θ in degrees: an edge whose dihedral angle is below it is sharp. Default 120°.
+    pub sharp_angle_deg: f32,
+    /// Seed 001's w1 and w2, used by `Metric::Hybrid`.
+    pub hybrid: HybridWeights,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            metric: Metric::Qem,
+            schedule: Schedule::Passes,
+            pair_distance: 0.001,
+            max_pairs_per_vertex: 2,
+            sharp_angle_deg: 120.0,
+            hybrid: HybridWeights::default(),
+        }
+    }
+}
+
+/// What happened during a build, for the summary.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BuildStats {
+    pub leaves: u32,
+    pub nodes: u32,
+    pub depth: u32,
+    pub input_triangles: u32,
+    pub parts: u32,
+    pub feature_edges: u32,
+    pub proximity_pairs: u32,
+    /// Merges postponed because they would have flipped a triangle.
+    pub flip_deferrals: u32,
+    /// Times no candidate was left with several roots, and the pair radius grew.
+    pub widenings: u32,
+    /// Passes (`Schedule::Passes`) or queue pops (`Schedule::Greedy`).
+    pub rounds: u64,
+    /// Candidate pairs priced.
+    pub pricings: u64,
+    pub seconds: f64,
+    pub phases: Phases,
+}
+
+/// Wall-clock seconds of each part of a build (the parallel parts use every thread).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Phases {
+    /// Edge classification, Table 1 weights and quadrics.
+    pub features: f64,
+    /// Close non-edge pairs.
+    pub close_pairs: f64,
+    /// Leaf nodes and the working mesh.
+    pub leaves: f64,
+    /// Every candidate priced before the first pass; each pass's pairs chosen and priced.
+    pub pricing: f64,
+    /// The merges, their nodes finished alongside (greedy schedule: everything after the first
+    /// pricing).
+    pub merging: f64,
+    /// Stale pairs dropped and the pairs around each pass's merges priced anew.
+    pub repricing: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("the mesh has no triangles")]
+    Empty,
+    #[error("the mesh has {0} vertices; at most 2^30 are supported")]
+    TooLarge(usize),
+    #[error("invalid mesh: {0}")]
+    Invalid(#[from] crate::mesh::MeshProblem),
+}
+
+/// How many merges between progress callbacks.
+const PROGRESS_EVERY: usize = 4096;
+
+/// The state of a build: the working mesh, per-slot merge data, and the tree so far.
+struct Builder<'m> {
+    mesh: &'m Mesh,
+    collapser: Collapser,
+    /// Each slot's quadric (about its position) and Table 1 weight, as pricing reads them.
+    ends: Vec<PairEnd>,
+    /// Surface area each slot stands for: the weight of attribute averages.
+    mass: Vec<f32>,
+    /// The tree node each live slot currently is.
+    node_of: Vec<u32>,
+    nodes: Vec<Node>,
+    /// The input triangles that vanish at each merge, by index, in node order. The corners are read
+    /// after the merges ([`build`]): read here, each would be a cache miss on the sequential path.
+    vanished: Vec<u32>,
+    vanish_offsets: Vec<u32>,
+    metric: Metric,
+    hybrid: HybridWeights,
+    mean_edge_length: f32,
+    stats: BuildStats,
+    removed: Vec<(u32, crate::simplify::collapse::Vanish)>,
+    /// Error samples of each live slot (input vertex ids, `NONE`-padded).
+    samples: Vec<Samples>,
+}
+
+impl Builder<'_> {
+    fn pricing(&self) -> Pricing {
+        Pricing {
+            metric: self.metric,
+            hybrid: self.hybrid,
+            mean_edge_length: self.mean_edge_length,
+        }
+    }
+
+    fn price(&self, a: u32, b: u32, edge: bool) -> Candidate {
+        self.pricing()
+            .price(&self.ends[a as usize], &self.ends[b as usize], edge)
+    }
+
+    fn merges(&self) -> u32 {
+        self.nodes.len() as u32 - self.mesh.positions.len() as u32
+    }
+
+    /// `vunify(a, b)` at the priced position, recorded as a new node. Returns the surviving slot.
+    fn merge(&mut self, a: u32, b: u32, cand: &Candidate) -> u32 {
+        let pending = self.pending(a, b);
+        let mut nodes = std::mem::take(&mut self.nodes);
+        let u = nodes.len() as u32;
+        let (mut node, merged) = self.merge_topology(a, b, cand, u, pending);
+        let survivor = merged.slot;
+        self.ends[survivor as usize] = PairEnd::merged(
+            &self.ends[survivor as usize],
+            &self.ends[merged.gone as usize],
+            merged.position,
+        );
+        let mut fan = Vec::new();
+        fan_of(&self.collapser, survivor, &mut fan);
+        self.samples[survivor as usize] =
+            finish_node(&mut node, &nodes, &merged, &fan, &self.mesh.positions);
+        for c in node.children {
+            nodes[c as usize].parent = u;
+        }
+        nodes.push(node);
+        self.nodes = nodes;
+        survivor
+    }
+
+    /// Asks for what merging `a` and `b` will read, in stages a few merges ahead (see
+    /// [`Collapser::prefetch_pair`]): the working mesh around them, and their quadrics, weights,
+    /// masses, samples and current nodes (`done`). Only a hint.
+    fn prefetch_merge(&self, a: u32, b: u32, stage: u32) {
+        self.collapser.prefetch_pair(a, b, stage);
+        if stage == 0 {
+            for s in [a as usize, b as usize] {
+                crate::prefetch(&self.node_of[s]);
+                crate::prefetch(&self.samples[s]);
+                crate::prefetch(&self.mass[s]);
+            }
+        }
+    }
+
+    /// Both slots' error samples, before they merge.
+    fn pending(&self, a: u32, b: u32) -> Pending {
+        let mut out = [NONE; 2 * SAMPLES];
+        out[..SAMPLES].copy_from_slice(&self.samples[a as usize]);
+        out[SAMPLES..].copy_from_slice(&self.samples[b as usize]);
+        out
+    }
+
+    /// The sequential half of a merge: the working mesh, the vanishing triangles. Returns the new
+    /// node `u`, whose colour, normal, sphere, cone and error [`finish_node`] completes from the
+    /// returned [`Merged`] (`pending`: both slots' samples); the caller links its children to it,
+    /// stores it, and stores the survivor's new pricing data ([`PairEnd::merged`]).
+    fn merge_topology(
+        &mut self,
+        a: u32,
+        b: u32,
+        cand: &Candidate,
+        u: u32,
+        pending: Pending,
+    ) -> (Node, Merged) {
+        // Keep the slot with more triangles: fewer to rewrite.
+        let (a, b) = if self.collapser.face_count(b) > self.collapser.face_count(a) {
+            (b, a)
+        } else {
+            (a, b)
+        };
+        self.removed.clear();
+        self.collapser.unify(a, b, cand.position, &mut self.removed);
+        let (ai, bi) = (a as usize, b as usize);
+        let (s, t) = (self.node_of[ai] as usize, self.node_of[bi] as usize);
+        let (ms, mt) = (self.mass[ai], self.mass[bi]);
+        self.mass[ai] = ms + mt;
+        let blend = if ms + mt > 0.0 {
+            [ms / (ms + mt), mt / (ms + mt)]
+        } else {
+            [0.5, 0.5]
+        };
+        let node = Node {
+            position: cand.position.to_array(),
+            error: cand.error as f32,
+            color: [0.0; 3],
+            parent: NONE,
+            normal: [0.0; 3],
+            children: [s as u32, t as u32],
+            sphere: [0.0; 4],
+            cone: [0.0; 4],
+        };
+        self.node_of[ai] = u;
+        self.vanished.extend(self.removed.iter().map(|&(f, _)| f));
+        self.vanish_offsets.push(self.vanished.len() as u32);
+        let merged = Merged {
+            blend,
+            pending,
+            slot: a,
+            gone: b,
+            position: cand.position,
+        };
+        (node, merged)
+    }
+
+    /// If merging `e`'s pair at `cand` would flip a triangle and it has not been deferred before,
+    /// defers it: back in the list at a penalty. Returns whether it did.
+    pub(super) fn defer_if_flips(&mut self, e: &mut Entry, cand: &Candidate) -> bool {
+        let (a, b) = (e.a, e.b & SLOT);
+        if e.b & PENALIZED != 0 || !self.collapser.flips(a, b, cand.position) {
+            return false;
+        }
+        let c = &self.collapser;
+        let gap2 = c.positions[a as usize].distance_squared(c.positions[b as usize]) as f64;
+        e.cost = penalized_key(cand.cost, gap2);
+        e.b |= PENALIZED;
+        self.stats.flip_deferrals += 1;
+        true
+    }
+
+    /// No candidate is left but several isolated vertices are: pair each with its nearest others within
+    /// a radius that doubles until some pair is found. Returns the new pairs.
+    fn widen(&mut self, radius: &mut f32, per_vertex: usize) -> Vec<(u32, u32)> {
+        self.stats.widenings += 1;
+        let c = &self.collapser;
+        let live: Vec<(u32, Vec3)> = c
+            .live_slots()
+            .map(|s| (s, c.positions[s as usize]))
+            .collect();
+        let pairs = loop {
+            let pairs = close_pairs(&live, *radius, per_vertex.max(1), |_, _| true);
+            if !pairs.is_empty() {
+                break pairs;
+            }
+            *radius *= 2.0;
+        };
+        for &(a, b) in &pairs {
+            self.collapser.add_proximity_pair(a, b);
+        }
+        pairs
+    }
+}
+
+/// Builds the vertex tree of `mesh`. `progress(done, total)` is called every few thousand merges.
+pub fn build(
+    mesh: &Mesh,
+    options: &BuildOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<(VertexTree, BuildStats), BuildError> {
+    let start = Instant::now();
+    mesh.check().map_err(BuildError::Invalid)?;
+    if mesh.triangles.is_empty() {
+        return Err(BuildError::Empty);
+    }
+    let n = mesh.positions.len();
+    if n >= SLOT as usize {
+        return Err(BuildError::TooLarge(n));
+    }
+    let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
+
+    // 1. Features and quadrics.
+    let clock = Instant::now();
+    let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+    let features_secs = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    // 2. Close non-edge pairs (edges come from the working mesh itself). Found before the working mesh
+    // and the nodes exist: the grid is the largest temporary of the build, and this keeps it off the peak.
+    let mut stats = BuildStats {
+        leaves: n as u32,
+        input_triangles: mesh.triangles.len() as u32,
+        parts: mesh.parts.len() as u32,
+        feature_edges: feats.is_feature.iter().filter(|&&f| f).count() as u32,
+        ..Default::default()
+    };
+    let close = if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
+        leaves::close_non_edge_pairs(
+            &mesh.positions,
+            &feats.edges,
+            options.pair_distance * diagonal,
+            options.max_pairs_per_vertex,
+        )
+    } else {
+        Vec::new()
+    };
+    stats.proximity_pairs = close.len() as u32;
+    stats.phases.features = features_secs;
+    stats.phases.close_pairs = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let features::Features {
+        edges,
+        quadrics,
+        vertex_weight,
+        mean_edge_length,
+        ..
+    } = feats;
+
+    let mut collapser = Collapser::new(mesh.positions.clone(), &mesh.triangles);
+    let (nodes, mass) = leaves::leaves(mesh, &collapser);
+
+    for &(a, b) in &close {
+        collapser.add_proximity_pair(a, b);
+    }
+
+    let ends: Vec<PairEnd> = quadrics
+        .par_iter()
+        .zip(&vertex_weight)
+        .zip(&mesh.positions)
+        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
+        .collect();
+    drop((quadrics, vertex_weight));
+
+    // 3-5. Merge until one vertex is left.
+    let mut builder = Builder {
+        mesh,
+        collapser,
+        ends,
+        mass,
+        node_of: (0..n as u32).collect(),
+        nodes,
+        vanished: Vec::with_capacity(mesh.triangles.len()),
+        vanish_offsets: {
+            let mut v = Vec::with_capacity(n);
+            v.push(0);
+            v
+        },
+        metric: options.metric,
+        hybrid: options.hybrid,
+        mean_edge_length,
+        stats,
+        removed: Vec::new(),
+        samples: (0..n as u32)
+            .map(|v| {
+                let mut s = [NONE; SAMPLES];
+                s[0] = v;
+                s
+            })
+            .collect(),
+    };
+    builder.stats.phases.leaves = clock.elapsed().as_secs_f64();
+    // Every pair of the mesh, priced once: its edges and its close pairs are exactly the partners of
+    // each slot, listed already.
+    let clock = Instant::now();
+    let mut initial = builder.price_pairs(&edges, true);
+    drop(edges);
+    initial.extend(builder.price_pairs(&close, false));
+    drop(close);
+    builder.stats.phases.pricing += clock.elapsed().as_secs_f64();
+    let mut radius = options.pair_distance.max(1e-3) * diagonal;
+    match options.schedule {
+        Schedule::Passes => {
+            builder.run_passes(initial, &mut radius, options.max_pairs_per_vertex, progress)
+        }
+        Schedule::Greedy => {
+            builder.run_greedy(initial, &mut radius, options.max_pairs_per_vertex, progress)
+        }
+    }
+    progress(n - 1, n - 1);
+
+    let Builder {
+        mut stats,
+        nodes,
+        vanished,
+        vanish_offsets,
+        ..
+    } = builder;
+    let triangles = vanished
+        .par_iter()
+        .map(|&f| mesh.triangles[f as usize])
+        .collect();
+    drop(vanished);
+    let tree = VertexTree {
+        leaf_count: n as u32,
+        nodes,
+        triangles,
+        vanish_offsets,
+        metric: options.metric,
+        has_colors: mesh.colors.is_some(),
+        has_normals: mesh.normals.is_some(),
+        parts: mesh
+            .parts
+            .iter()
+            .map(|p| PartInfo {
+                name: p.name.clone(),
+                triangles: p.triangles.end - p.triangles.start,
+            })
+            .collect(),
+    };
+    stats.nodes = tree.nodes.len() as u32;
+    stats.depth = tree.depth();
+    stats.seconds = start.elapsed().as_secs_f64();
+    Ok((tree, stats))
+}
