@@ -23,6 +23,10 @@ use std::path::{Path, PathBuf};
 /// unbounded number of frames.
 pub const MAX_SECONDS: f32 = 86_400.0;
 
+/// The largest number a keyframe may hold: squares and cross products of such numbers stay finite in
+/// `f32`, so every sample of a valid path is a finite camera.
+pub const MAX_COORDINATE: f32 = 1e15;
+
 /// Vertical field of view when a keyframe names none.
 pub const DEFAULT_FOV_DEG: f32 = 50.0;
 
@@ -114,8 +118,13 @@ impl CameraPath {
                 .chain(k.orientation.iter().flatten())
                 .chain(k.up.iter().flatten())
                 .chain([&k.time, &k.fov_deg]);
-            if numbers.into_iter().any(|x| !x.is_finite()) {
+            if numbers.clone().any(|x| !x.is_finite()) {
                 return Err(format!("keyframe {i} has a number that is not finite"));
+            }
+            if numbers.into_iter().any(|x| x.abs() > MAX_COORDINATE) {
+                return Err(format!(
+                    "keyframe {i} has a number larger than {MAX_COORDINATE:e} in magnitude"
+                ));
             }
             if k.look_at.is_some() && k.orientation.is_some() {
                 return Err(format!(

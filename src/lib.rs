@@ -8,10 +8,12 @@
 #[cfg(feature = "viewer")]
 pub mod app;
 pub mod camera_path;
+pub mod display;
 pub mod export;
 pub mod measure;
 pub mod mesh;
 pub mod refine;
+pub mod script;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod simplify;

@@ -138,7 +138,7 @@ fn lod_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings)
         .checkbox(&mut frozen, "freeze LOD (L): fly out and look at the front")
         .changed()
     {
-        apply(&super::script::What::Freeze(frozen), view, settings);
+        apply(&crate::script::What::Freeze(frozen), view, settings);
     }
     ui.separator();
 }
@@ -188,7 +188,7 @@ fn navigation_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSe
     ui.strong("Navigation");
     ui.horizontal(|ui| {
         if ui.checkbox(&mut settings.orbit, "orbit (O)").changed() {
-            apply(&super::script::What::Orbit(settings.orbit), view, settings);
+            apply(&crate::script::What::Orbit(settings.orbit), view, settings);
         }
         if ui.button("frame (F)").clicked()
             && let Some(m) = &view.model

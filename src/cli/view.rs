@@ -9,7 +9,7 @@ pub struct ViewArgs {
     /// The model: .vtree opens at once, a mesh (.obj, .ply, .off, optionally .xz) is built in the
     /// background (and cached). Default: the bundled model.
     model: Option<PathBuf>,
-    /// Run a script (JSON: frames, camera path, UI actions, screenshots; see src/app/script.rs) and exit.
+    /// Run a script (JSON: frames, camera path, UI actions, screenshots; the README shows one) and exit.
     #[arg(long)]
     script: Option<PathBuf>,
     /// Scripted shortcut: fly in over this many frames, then exit.
@@ -71,9 +71,9 @@ fn open(_: PathBuf, _: Option<Scripted>, _: Option<[u32; 2]>) -> Result<()> {
 /// Opens the window on `model`; returns when it closes (or a script ends).
 #[cfg(feature = "viewer")]
 fn open(model: PathBuf, scripted: Option<Scripted>, size: Option<[u32; 2]>) -> Result<()> {
-    use vunify::app::script::Script;
+    use vunify::script::Script;
     let script = match scripted {
-        Some(Scripted::File(file)) => Some(Script::load(&file).map_err(anyhow::Error::msg)?),
+        Some(Scripted::File(file)) => Some(Script::load(&file)?),
         Some(Scripted::FlyIn { frames, screenshot }) => Some(Script::simple(frames, screenshot)),
         None => None,
     };

@@ -4,7 +4,7 @@
 use super::criteria::{Camera, Tests, View};
 use super::front::Front;
 use super::hierarchy::{Hierarchy, NIL};
-use super::lookahead::{Decision, LookAhead};
+use super::lookahead;
 use super::trace::OpClock;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -105,8 +105,6 @@ pub struct Refiner {
     budget_tau: f32,
     /// The camera and τ of the last frame: a convergence holds only while they stay.
     last_view: Option<(Camera, f32, Settings)>,
-    /// Work ahead of the cursor (see `refine::lookahead`).
-    look: LookAhead,
     /// Time spent in splits and unifies this frame (benchmarks only, see `refine::trace`).
     clock: OpClock,
 }
@@ -128,7 +126,6 @@ impl Refiner {
             vertex_updates: Vec::new(),
             budget_tau: settings.tolerance_px,
             last_view: None,
-            look: LookAhead::new(),
             clock: OpClock::default(),
         }
     }
@@ -197,8 +194,6 @@ impl Refiner {
             self.front.sort_active();
             self.cursor = 0;
         }
-        // Decisions are for this frame's view only.
-        self.look.reset();
         let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
         let mut visited = 0usize;
         let mut converged = false;
@@ -210,7 +205,6 @@ impl Refiner {
                     self.front.sort_active();
                 }
                 self.cursor = 0;
-                self.look.restart();
             }
             if self.quiet_visits >= self.front.active_count() {
                 converged = true;
@@ -222,10 +216,7 @@ impl Refiner {
             {
                 break;
             }
-            let (settings, front) = (&self.settings, &self.front);
-            self.look.run(h, front, self.cursor, |v| {
-                decide(settings, front, h, &view, v, tau)
-            });
+            lookahead::prefetch_ahead(h, self.front.list(), self.cursor);
             let u = self.front.list()[self.cursor];
             if !self.front.is_active(u) {
                 // Left the front since it was listed.
@@ -271,10 +262,7 @@ impl Refiner {
             self.cancel_unify(h, p);
             return false;
         }
-        let d = match self.look.decision(self.cursor, u) {
-            Some(early) => early,
-            None => decide(&self.settings, &self.front, h, view, u, tau),
-        };
+        let d = decide(&self.settings, &self.front, h, view, u, tau);
         if d.split {
             return self.split(h, u, cap);
         }
@@ -404,7 +392,18 @@ impl Refiner {
     }
 }
 
-/// What the view tests ask of active node `u` (see [`Decision`]).
+/// What the view tests ask of an active node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Decision {
+    /// Split the node.
+    split: bool,
+    /// Unify its parent (weighed from the first child only: the second would ask the same);
+    /// `None` when not weighed because the parent could not unify then (its second child was not
+    /// on the front).
+    unify_parent: Option<bool>,
+}
+
+/// What the view tests ask of active node `u`.
 #[inline(always)]
 fn decide(
     settings: &Settings,
@@ -425,7 +424,6 @@ fn decide(
         None
     };
     Decision {
-        node: u,
         split,
         unify_parent,
     }

@@ -16,19 +16,7 @@ const MAX_CHUNK_BYTES: u64 = 128 << 20;
 /// The smallest index buffer, in triangles.
 const MIN_TRIANGLES: u64 = 1024;
 
-/// How surfaces are coloured.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-pub enum ColorBy {
-    /// The model's vertex colours when it has them, else a neutral grey; lit.
-    #[default]
-    Auto,
-    /// Neutral grey, lit.
-    Shaded,
-    /// Hue by the node's depth in the tree.
-    Depth,
-    /// The node's error projected on screen: blue at 0, green at τ, red at 2τ and above.
-    Error,
-}
+pub use crate::display::ColorBy;
 
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DrawOptions {

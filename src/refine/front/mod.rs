@@ -27,7 +27,6 @@
 //! [`Front::take_dirty`] are reported as ranges.
 
 mod ops;
-mod prefetch;
 
 use super::hierarchy::{Hierarchy, NIL};
 
@@ -116,12 +115,6 @@ impl Seen {
             self.stamp = 1;
         }
         self.coincident = false;
-    }
-
-    /// The first entry looked at for a triangle whose corners' exclusive or is `x`.
-    #[inline(always)]
-    fn slot(&self, x: u32) -> &u64 {
-        &self.table[((x as u64).wrapping_mul(SEEN_HASH) >> (64 - SEEN_BITS)) as usize]
     }
 
     /// Adds record `r`, whose corners are now `corners`, after `added` others.
@@ -254,7 +247,7 @@ const NEXT: [usize; 3] = [1, 2, 0];
 /// that appears is the one holding its third input corner. Seven times in ten no triangle around
 /// the node has that leaf for an input corner, and the node's leaf range must be read; reading the
 /// ranges as the walk meets the corners lets those loads overlap with the walk instead of
-/// queueing after it (and the look-ahead asks for them early, see [`Front::prefetch_lists`]).
+/// queueing after it.
 /// Scratch of the front, so that no split has to clear it.
 #[derive(Clone)]
 struct Candidates {
@@ -480,8 +473,7 @@ impl Front {
     /// [`Front::sort_active`] drops. Leaving them in place saves every operation a position lookup
     /// and an update of the list, and keeps the entries ahead of a visit where they are, which the
     /// runtime's look-ahead relies on (filling the hole with the last entry, as a swap-remove
-    /// would, brought a node to the cursor that the look-ahead had never seen: an operation on it
-    /// cost 2.2–2.5 times as much).
+    /// would, brings a node to the cursor whose data was never asked for).
     pub fn list(&self) -> &[u32] {
         &self.list
     }
@@ -580,7 +572,7 @@ impl Front {
     /// drawn triangles, front list), and touches it: the operations then take new memory without
     /// waiting for the system. Growing a `Vec` inside an operation copies it and faults its new
     /// pages in one at a time (~2 µs each here, and the kernel's zeroing of each page evicts what
-    /// the look-ahead fetched): on the dragon's fly-in, whose front doubles, that halved the
+    /// was fetched ahead): on the dragon's fly-in, whose front doubles, that halved the
     /// operations' rate. Called between operations (by the runtime once a frame); an array grows
     /// by half its length once less than an eighth is left, so the capacity stays within 1.5× of
     /// the length plus a little, as a `Vec`'s own doubling would.

@@ -270,8 +270,7 @@ impl Front {
             }
         }
         self.head[p as usize] = head;
-        // The degenerated triangles leave their third corner's list (which the look-ahead asked
-        // for, see `Front::prefetch_lists`) and free their records.
+        // The degenerated triangles leave their third corner's list and free their records.
         for i in 0..self.dying.len() {
             let r = self.dying[i];
             // SAFETY: `r` comes from a list link, see `record`.

@@ -16,7 +16,7 @@
 //! `path` is `orbit`, `fly-in`, `flythrough` (generated for the model) or a camera path file; without
 //! it the camera stays where `F` puts it.
 
-use crate::render::ColorBy;
+use crate::display::ColorBy;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -68,11 +68,59 @@ pub enum What {
     Record(Option<PathBuf>),
 }
 
+/// A script file that cannot be used, with where and why.
+#[derive(Debug, thiserror::Error)]
+#[error("{}{}: {message}", path.display(), location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
+pub struct ScriptError {
+    pub path: PathBuf,
+    /// Line and column, when the problem is at a place in the text.
+    pub location: Option<(usize, usize)>,
+    pub message: String,
+}
+
+/// The most frames a script may ask for (a day at 60 fps): more is a typo.
+pub const MAX_FRAMES: u32 = 5_184_000;
+
 impl Script {
-    pub fn load(path: &Path) -> Result<Script, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        serde_json::from_str(&text)
-            .map_err(|e| format!("{}:{}:{}: {e}", path.display(), e.line(), e.column()))
+    pub fn load(path: &Path) -> Result<Script, ScriptError> {
+        let bytes = std::fs::read(path).map_err(|e| ScriptError {
+            path: path.into(),
+            location: None,
+            message: format!("cannot read: {e}"),
+        })?;
+        Script::parse(&bytes, path)
+    }
+
+    /// Parses and checks script text; `path` names it in errors.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Script, ScriptError> {
+        let script: Script = serde_json::from_slice(bytes).map_err(|e| ScriptError {
+            path: path.into(),
+            location: Some((e.line(), e.column())),
+            message: e.to_string(),
+        })?;
+        let fail = |message: String| ScriptError {
+            path: path.into(),
+            location: None,
+            message,
+        };
+        if script.frames == 0 || script.frames > MAX_FRAMES {
+            return Err(fail(format!(
+                "frames is {}; it must be between 1 and {MAX_FRAMES}",
+                script.frames
+            )));
+        }
+        for a in &script.actions {
+            match a.what {
+                What::Tau(t) if !(t > 0.0 && t.is_finite()) => {
+                    return Err(fail(format!(
+                        "the action at frame {} sets tau to {t}; it must be a positive number of pixels",
+                        a.frame
+                    )));
+                }
+                _ => {}
+            }
+        }
+        Ok(script)
     }
 
     /// `--frames N --screenshot FILE` as a script: a fly-in, a screenshot at the end.

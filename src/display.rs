@@ -1,0 +1,16 @@
+//! How a front is displayed, in terms the renderer, the viewer's settings and scripts share (no GPU
+//! here, so that scripts parse and are fuzzed without one).
+
+/// How surfaces are coloured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum ColorBy {
+    /// The model's vertex colours when it has them, else a neutral grey; lit.
+    #[default]
+    Auto,
+    /// Neutral grey, lit.
+    Shaded,
+    /// Hue by the node's depth in the tree.
+    Depth,
+    /// The node's error projected on screen: blue at 0, green at τ, red at 2τ and above.
+    Error,
+}
