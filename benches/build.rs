@@ -5,7 +5,7 @@
 //!
 //! Build and meshopt times are medians of `--repeat` alternating runs (default 3).
 //!
-//! Models come from $VUNIFY_MODELS (default ../shared/models).
+//! Models come from $VUNIFY_MODELS (required).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
@@ -111,7 +111,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(3)
         .max(1);
-    let dir = std::env::var("VUNIFY_MODELS").unwrap_or_else(|_| "../shared/models".into());
+    let dir = std::env::var("VUNIFY_MODELS").expect("set VUNIFY_MODELS to the folder of the test models (see the README)");
     let file_of = |m: &str| match m {
         "bunny" => "stanford-bunny.obj".to_string(),
         "dragon" => "stanford-dragon.obj.xz".to_string(),
@@ -210,7 +210,7 @@ fn main() {
 
     if !flag("--skip-metrics") {
         println!(
-            "\n## The four metrics (seed 003's comparison): Hausdorff mean / max (% of diagonal), build seconds\n"
+            "\n## The four metrics (Chen's comparison of metrics): Hausdorff mean / max (% of diagonal), build seconds\n"
         );
         println!("| model | level | qem | qem-midpoint | edge-length | hybrid |");
         println!("|---|---|---|---|---|---|");

@@ -1,10 +1,10 @@
-//! The refinement runtime along scripted camera paths (issue 3 §7): per-frame adaptation time, split and
+//! The refinement runtime along scripted camera paths: per-frame adaptation time, split and
 //! unify operations per second, triangles drawn, memory per original vertex; against building the same
 //! front from scratch (a fresh refiner from the root) and extracting the same triangle count from the
 //! tree, in the same run.
 //!
 //! `cargo bench --bench refine [-- --models dragon,bunny --frames 600 --size 1920x1080 --tau 1]`
-//! Models come from `$VUNIFY_MODELS` (default `../shared/models`).
+//! Models come from `$VUNIFY_MODELS` (required).
 
 use glam::Vec3;
 use std::path::PathBuf;
@@ -74,7 +74,7 @@ fn orbit(center: Vec3, radius: f32, frames: usize, size: [u32; 2]) -> Vec<Camera
         .collect()
 }
 
-/// Fly-in (seed 001 Fig. 6): from 12 radii away to 0.4 radii from the surface, geometrically, aimed
+/// Fly-in (Tao et al.'s Fig. 6): from 12 radii away to 0.4 radii from the surface, geometrically, aimed
 /// at a point on the model's side.
 fn fly_in(center: Vec3, radius: f32, frames: usize, size: [u32; 2]) -> Vec<Camera> {
     let dir = Vec3::new(0.3, 0.25, 1.0).normalize();
@@ -105,7 +105,7 @@ const REPLAYS: usize = 9;
 fn main() {
     let args = args();
     let dir = PathBuf::from(
-        std::env::var_os("VUNIFY_MODELS").unwrap_or_else(|| "../shared/models".into()),
+        std::env::var_os("VUNIFY_MODELS").expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
     );
     println!(
         "# refine bench: {} frames a path, {}x{}, tau = {} px",

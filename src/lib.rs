@@ -2,7 +2,7 @@
 //!
 //! The crate reads as a pipeline, each module depending only on those before it:
 //! [`mesh`] (input, welding) → [`simplify`] (quadrics, pairs, the merge operation) → [`vtree`] (the
-//! binary vertex tree of seed 001: its builder, file format and static extraction) → [`measure`]
+//! binary vertex tree of Tao et al.: its builder, file format and static extraction) → [`measure`]
 //! (Hausdorff distance). None of these touch a GPU.
 
 #[cfg(feature = "viewer")]

@@ -13,7 +13,7 @@ pub fn arg(name: &str, default: &str) -> String {
 }
 
 /// A model named on the command line (`dragon`, `bunny`, `cow`, or a file name) in `$VUNIFY_MODELS`
-/// (default `../shared/models`).
+/// (required).
 pub fn model_file(name: &str) -> PathBuf {
     let file = match name {
         "dragon" => "stanford-dragon.obj.xz".to_string(),
@@ -25,5 +25,5 @@ pub fn model_file(name: &str) -> PathBuf {
 }
 
 pub fn models_dir() -> PathBuf {
-    PathBuf::from(std::env::var_os("VUNIFY_MODELS").unwrap_or_else(|| "../shared/models".into()))
+    PathBuf::from(std::env::var_os("VUNIFY_MODELS").expect("set VUNIFY_MODELS to the folder of the test models (see the README)"))
 }

@@ -261,7 +261,7 @@ fn path_section(ui: &mut Ui, view: &mut ViewState) {
 }
 
 fn compare_section(ui: &mut Ui, view: &mut ViewState) {
-    ui.strong("Compare methods (seed 003)");
+    ui.strong("Compare methods (Garland & Heckbert; Chen's comparison)");
     let mut on = view.compare.is_some();
     if ui.checkbox(&mut on, "four metrics side by side").changed() {
         toggle_compare(view, on);

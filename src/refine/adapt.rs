@@ -1,4 +1,4 @@
-//! The per-frame adaptation of the front (seed 001 §3.2, §4): visit active nodes, split where the view
+//! The per-frame adaptation of the front (Tao et al. §3.2, §4): visit active nodes, split where the view
 //! asks for more detail, unify where it asks for less, amortised over frames, with geomorphs.
 
 use super::criteria::{Camera, Tests, View};
@@ -29,7 +29,7 @@ pub struct Settings {
     /// so that a node near τ does not flip every frame. Default 0.1.
     pub hysteresis: f32,
     /// Amortisation: at most this many front nodes visited per frame, the next frame going on where
-    /// this one stopped (seed 001 §4). `None`: visit until nothing changes. Default `None`.
+    /// this one stopped (Tao et al. §4). `None`: visit until nothing changes. Default `None`.
     pub visit_limit: Option<usize>,
     /// Amortisation by time: stop visiting after this long. Default `None`.
     pub time_limit: Option<Duration>,

@@ -1,4 +1,4 @@
-//! The camera and the three view tests of seed 001 §3.2–3.3 as every view-dependent LOD system has them
+//! The camera and the three view tests of Tao et al. §3.2–3.3 as every view-dependent LOD system has them
 //! (SPEC §1.4): the frustum test on a node's bounding sphere, the normal test on its normal cone, and the
 //! screen-space error test in pixels.
 

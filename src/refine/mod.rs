@@ -1,4 +1,4 @@
-//! The view-dependent refinement runtime (seed 001 §3.2–3.3, §4): a live front through a vertex tree,
+//! The view-dependent refinement runtime (Tao et al. §3.2–3.3, §4): a live front through a vertex tree,
 //! refined and coarsened every frame by the frustum, normal and screen-space error tests, amortised over
 //! frames, with geomorphs. No GPU here: [`Front::indices`] and [`Refiner::vertex_updates`] are what a
 //! renderer uploads.
@@ -7,6 +7,12 @@
 //! and the `vsplit` / `vunify` operations, [`criteria`] the camera and the three tests, [`adapt`] the
 //! per-frame driver (with `lookahead`, the prefetching that keeps it from waiting on memory),
 //! [`validation`] from-scratch checks for tests.
+//!
+//! Tao, Cheng, Pan and Shi, *Dynamic level of detail framework with topological structure
+//! modification* (State Key Laboratory of CAD&CG, Zhejiang University), §3–4; with Hoppe's
+//! *View-dependent refinement of progressive meshes* (SIGGRAPH 97) and Luebke and Erikson's
+//! *View-dependent simplification of arbitrary polygonal environments* (SIGGRAPH 97).
+//! `docs/RUNTIME.md` explains it.
 
 pub mod adapt;
 pub mod criteria;

@@ -1,4 +1,4 @@
-//! The wgpu renderer of a live front (issue 4): it draws into any `&TextureView`, so the same code
+//! The wgpu renderer of a live front: it draws into any `&TextureView`, so the same code
 //! serves the app's window and headless rendering on lavapipe. Depends on [`crate::refine`]; nothing
 //! below it depends on this.
 

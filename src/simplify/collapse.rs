@@ -1,5 +1,5 @@
 //! The working mesh of a simplification: the paper's current vertex and triangle sets and the merge
-//! operation on them (seed 001 §2.3, steps 3–6).
+//! operation on them (Tao et al. §2.3, steps 3–6).
 //!
 //! Vertices live in *slots*, one per input vertex. `unify(a, b)` merges slot `b` into slot `a` (any two
 //! slots: no edge is needed), so a slot stands for a growing cluster; `find` is the paper's map
@@ -20,7 +20,7 @@ const ALIVE: u32 = u32::MAX;
 /// run of tuning; with 0.2, 1.10×; with 0.5 too many merges wait and thin parts suffer (1.29×).
 const FOLD_COS: f32 = 0.2;
 
-/// Why a triangle vanished in a merge (seed 001 Fig. 3).
+/// Why a triangle vanished in a merge (Tao et al.'s Fig. 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Vanish {
     /// Two of its corners became one vertex.

@@ -1,4 +1,4 @@
-//! Edge and vertex classification of the input mesh: boundary, non-manifold and sharp edges (seed 001
+//! Edge and vertex classification of the input mesh: boundary, non-manifold and sharp edges (Tao et al.
 //! eq. 3), the vertex feature weights of its Table 1, and the constraint planes that keep boundaries
 //! and creases under quadric simplification (Garland & Heckbert 1997 §6.2).
 
@@ -41,7 +41,7 @@ fn face_normal(p: &[Vec3], t: [u32; 3]) -> DVec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
-/// `sharp_dihedral_deg` is seed 001's θ: an edge between two triangles whose dihedral (interior) angle
+/// `sharp_dihedral_deg` is Tao et al.'s θ: an edge between two triangles whose dihedral (interior) angle
 /// is below θ is sharp. 180° is flat.
 pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: f32) -> Features {
     let n = positions.len();

@@ -7,12 +7,12 @@ use glam::{DVec3, Vec3};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Metric {
-    /// Garland–Heckbert quadrics, vertex at the quadric's optimum (seed 003, method 3).
+    /// Garland–Heckbert quadrics, vertex at the quadric's optimum (Chen's comparison, method 3).
     #[default]
     Qem,
-    /// Quadric cost, vertex at the midpoint (seed 003, method 2).
+    /// Quadric cost, vertex at the midpoint (Chen's comparison, method 2).
     QemMidpoint,
-    /// Cost = squared edge length, vertex at the midpoint (seed 003, method 1).
+    /// Cost = squared edge length, vertex at the midpoint (Chen's comparison, method 1).
     EdgeLength,
     /// Seed 001 eq. 2: w1·E_dist + w2·E_feature with Tables 1 and 2.
     Hybrid,
@@ -54,7 +54,7 @@ const PLACEMENT_REACH: f64 = 2.0;
 /// fandisk 2.5× the mean error).
 const TIE_BREAK: f64 = 1e-5;
 
-/// Hybrid-metric weights (seed 001 eq. 2).
+/// Hybrid-metric weights (Tao et al.'s eq. 2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HybridWeights {
     /// w1, on the squared distance in units of the input's mean edge length.

@@ -1,4 +1,4 @@
-//! Candidate non-edge pairs: vertices closer than a threshold (Garland & Heckbert 1997 §3; seed 001 §2.3
+//! Candidate non-edge pairs: vertices closer than a threshold (Garland & Heckbert 1997 §3; Tao et al. §2.3
 //! "any two vertices"). Found with a uniform grid of cell size = the threshold, so each query looks at
 //! the 27 cells around a point (as 9 columns): O(n) for surfaces, never O(n²).
 

@@ -1,4 +1,6 @@
-//! Garland–Heckbert quadric error metric (seed 003; Garland & Heckbert 1997).
+//! The quadric error metric of Michael Garland and Paul S. Heckbert, *Surface simplification using
+//! quadric error metrics*, SIGGRAPH 97 (as compared with edge length and midpoint placement in Chen
+//! Jianfei's lab report for *Fundamentals of Computer Graphics*, Tsinghua University).
 //!
 //! `Q = Σ w_i p_i p_iᵀ` over planes `p_i = (n, d)` with `n·x + d = 0`; the cost of a position `v` is
 //! `vᵀ Q v` in homogeneous coordinates. Kept in `f64`: optimal placement solves a 3×3 system whose
@@ -104,7 +106,7 @@ impl Quadric {
         }
     }
 
-    /// The position minimising `vᵀQv`: solves `A v = −b` (seed 003's 4×4 system with its last row
+    /// The position minimising `vᵀQv`: solves `A v = −b` (Garland and Heckbert's 4×4 system with its last row
     /// `[0 0 0 1]`). `None` when A is ill-conditioned.
     pub fn optimum(&self) -> Option<DVec3> {
         let (a, b, c, d, e, f) = (self.a00, self.a01, self.a02, self.a11, self.a12, self.a22);

@@ -1,5 +1,5 @@
 //! Static levels of detail taken from the tree: a *cut* (front) through it and the mesh it stands for.
-//! This is seed 003's export, and how the tree is compared with other simplifiers.
+//! This is the export of Chen's QEM report, and how the tree is compared with other simplifiers.
 
 use super::VertexTree;
 use crate::mesh::{Mesh, Part};

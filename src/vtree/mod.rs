@@ -1,10 +1,14 @@
-//! The binary vertex tree of seed 001 (§3.1): leaves are the input vertices, each internal node the
+//! The binary vertex tree of Tao et al. (§3.1): leaves are the input vertices, each internal node the
 //! `vunify` of its two children, the root the whole scene merged to one vertex.
 //!
 //! Nodes are numbered leaves first (`0..leaf_count`, the input's vertex order), then internal nodes in
 //! build order, so children always precede their parent and the root is the last node. Triangles are
 //! stored once, as leaf indices, grouped by the node whose merge makes them vanish ("the triangle set
 //! enumerated by u"); a front maps their corners to its vertices.
+//!
+//! The method: Tao Zhi-Liang, Cheng Chi-Yi, Pan Zhi-Geng, Shi Jiao-Ying (State Key Laboratory of
+//! CAD&CG, Zhejiang University), *Dynamic level of detail framework with topological structure
+//! modification* (拓扑结构可变的动态多细节层次模型). `docs/VERTEX_TREE.md` explains the builder.
 
 mod build;
 mod check;
@@ -107,7 +111,7 @@ impl VertexTree {
     /// children's bounds (so it never decreases towards the root).
     ///
     /// Why it bounds the surface: on any front, a point `p = Σ βᵢ vᵢ` of an input triangle is drawn
-    /// at `p' = Σ βᵢ g(vᵢ)` (seed 001's vertex map, applied to the corners), and
+    /// at `p' = Σ βᵢ g(vᵢ)` (Tao et al.'s vertex map, applied to the corners), and
     /// `|p − p'| ≤ Σ βᵢ |vᵢ − g(vᵢ)| ≤ maxᵢ bound(g(vᵢ))`. Every drawn triangle is the image of input
     /// triangles, so both one-sided distances, and with them the Hausdorff distance between the input
     /// and any front (its triangles, and the edges and points that input triangles collapse to), are

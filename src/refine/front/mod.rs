@@ -7,10 +7,10 @@
 //! with. Our trees merge vertices that share no edge and handle non-manifold input, so there is no such
 //! neighbourhood. We keep Luebke & Erikson's (1997) rule instead, which holds for any order:
 //!
-//! * every live triangle's corners are the active ancestors of its input corners (seed 001's `g(v)`);
+//! * every live triangle's corners are the active ancestors of its input corners (Tao et al.'s `g(v)`);
 //! * a triangle is live exactly when its lowest pairwise common ancestor is split
 //!   ([`Hierarchy::appearing`]), i.e. when its three corners are distinct;
-//! * of live triangles with the same three corners (coincident, seed 001 Fig. 3b) one is drawn.
+//! * of live triangles with the same three corners (coincident, Tao et al.'s Fig. 3b) one is drawn.
 //!
 //! Each active node heads a list of the live triangles around it, threaded through the triangles'
 //! records (`next[k]` follows corner `k`, as a link naming the next record and its corner at the

@@ -96,7 +96,7 @@ impl Front {
         })
     }
 
-    /// The active node standing for `leaf` (seed 001's `g(v)`), walking up from the leaf.
+    /// The active node standing for `leaf` (Tao et al.'s `g(v)`), walking up from the leaf.
     pub fn representative(&self, h: &Hierarchy, leaf: u32) -> u32 {
         let mut w = leaf;
         while self.state(w) == BELOW {

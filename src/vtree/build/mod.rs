@@ -1,4 +1,4 @@
-//! The offline builder (seed 001 §2.3): merge the cheapest candidate pair, again and again, until one
+//! The offline builder (Tao et al. §2.3): merge the cheapest candidate pair, again and again, until one
 //! vertex is left, recording each merge as a tree node.
 //!
 //! 1. classify edges, build quadrics (with constraint planes on boundaries and creases);
