@@ -111,7 +111,8 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(3)
         .max(1);
-    let dir = std::env::var("VUNIFY_MODELS").expect("set VUNIFY_MODELS to the folder of the test models (see the README)");
+    let dir = std::env::var("VUNIFY_MODELS")
+        .expect("set VUNIFY_MODELS to the folder of the test models (see the README)");
     let file_of = |m: &str| match m {
         "bunny" => "stanford-bunny.obj".to_string(),
         "dragon" => "stanford-dragon.obj.xz".to_string(),

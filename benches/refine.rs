@@ -105,7 +105,8 @@ const REPLAYS: usize = 9;
 fn main() {
     let args = args();
     let dir = PathBuf::from(
-        std::env::var_os("VUNIFY_MODELS").expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
+        std::env::var_os("VUNIFY_MODELS")
+            .expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
     );
     println!(
         "# refine bench: {} frames a path, {}x{}, tau = {} px",

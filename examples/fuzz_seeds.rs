@@ -14,7 +14,8 @@ fn main() {
     let out = PathBuf::from(args.next().unwrap_or_else(|| "fuzz/seeds".into()));
     let models = args.next().map(PathBuf::from);
     let cessna = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cessna.obj");
-    let (cessna, _) = mesh::load(&cessna, &CleanOptions::default()).expect("the bundled model loads");
+    let (cessna, _) =
+        mesh::load(&cessna, &CleanOptions::default()).expect("the bundled model loads");
     let meshes = [
         ("tetra", tetrahedron()),
         ("cessna-part", first_triangles(&cessna, 60)),
@@ -22,10 +23,21 @@ fn main() {
     for (name, m) in &meshes {
         write(&out, "obj", &format!("{name}.obj"), obj(m).as_bytes());
         write(&out, "off", &format!("{name}.off"), off(m).as_bytes());
-        write(&out, "ply", &format!("{name}-ascii.ply"), ply_ascii(m).as_bytes());
+        write(
+            &out,
+            "ply",
+            &format!("{name}-ascii.ply"),
+            ply_ascii(m).as_bytes(),
+        );
         write(&out, "ply", &format!("{name}-binary.ply"), &ply_binary(m));
-        let (tree, _) = vunify::vtree::build(m, &Default::default(), &mut |_, _| {}).expect("builds");
-        write(&out, "vtree", &format!("{name}.vtree"), &vunify::vtree::to_bytes(&tree));
+        let (tree, _) =
+            vunify::vtree::build(m, &Default::default(), &mut |_, _| {}).expect("builds");
+        write(
+            &out,
+            "vtree",
+            &format!("{name}.vtree"),
+            &vunify::vtree::to_bytes(&tree),
+        );
     }
     write(
         &out,
@@ -64,7 +76,12 @@ fn tetrahedron() -> Mesh {
 /// The first `n` triangles of `m` and the vertices they use.
 fn first_triangles(m: &Mesh, n: usize) -> Mesh {
     let tris: Vec<[u32; 3]> = m.triangles.iter().take(n).copied().collect();
-    let used = tris.iter().flatten().map(|&v| v as usize).max().map_or(0, |x| x + 1);
+    let used = tris
+        .iter()
+        .flatten()
+        .map(|&v| v as usize)
+        .max()
+        .map_or(0, |x| x + 1);
     Mesh::from_triangles(m.positions[..used].to_vec(), tris)
 }
 

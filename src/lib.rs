@@ -13,9 +13,9 @@ pub mod export;
 pub mod measure;
 pub mod mesh;
 pub mod refine;
-pub mod script;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod script;
 pub mod simplify;
 pub mod vtree;
 

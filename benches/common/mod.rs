@@ -25,5 +25,8 @@ pub fn model_file(name: &str) -> PathBuf {
 }
 
 pub fn models_dir() -> PathBuf {
-    PathBuf::from(std::env::var_os("VUNIFY_MODELS").expect("set VUNIFY_MODELS to the folder of the test models (see the README)"))
+    PathBuf::from(
+        std::env::var_os("VUNIFY_MODELS")
+            .expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
+    )
 }

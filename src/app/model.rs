@@ -81,6 +81,8 @@ pub fn load(
             }
         }
     };
+    tree.check_viewable()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     progress(1.0, "preparing the runtime");
     let hierarchy = Hierarchy::new(&tree);
     let leaves = &hierarchy.position[..hierarchy.leaf_count as usize];

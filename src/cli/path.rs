@@ -37,6 +37,8 @@ pub fn run(args: PathArgs) -> Result<()> {
         );
     }
     let tree = super::load_tree(&args.model)?;
+    tree.check_viewable()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
     let path = camera_path(args.kind, &tree, args.seconds);
     vunify::export::write_atomic(&args.output, path.to_json().as_bytes())
         .with_context(|| format!("cannot write {}", args.output.display()))?;

@@ -90,6 +90,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         bail!("--fps must be positive and at most 1000, got {}", args.fps);
     }
     let tree = super::load_tree(&args.model)?;
+    tree.check_viewable()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
     let path = match &args.path {
         Some(p) => vunify::camera_path::CameraPath::load(p)?,
         None => super::path::camera_path(super::path::PathKind::Orbit, &tree, 10.0),

@@ -65,7 +65,7 @@ impl Mesh {
     /// Length of the bounding-box diagonal: the unit of every relative distance in vunify.
     pub fn diagonal(&self) -> f32 {
         let (lo, hi) = self.bounds();
-        (hi - lo).length()
+        diagonal_of(hi - lo)
     }
 
     /// A mesh with one part covering all triangles.
@@ -153,6 +153,23 @@ pub enum MeshProblem {
     PartsOverlap(String),
     #[error("parts do not cover every triangle")]
     PartsShort,
+}
+
+/// The length of a box's diagonal `extent`, without the underflow or overflow of squaring its sides
+/// in `f32` (sides below ~1e-19 square to nothing, above ~1e19 to infinity): a model at any scale a
+/// float holds has a diagonal (infinite only past `f32::MAX`).
+pub fn diagonal_of(extent: Vec3) -> f32 {
+    let d = extent.length();
+    if d.is_finite() && d >= 1e-18 {
+        return d;
+    }
+    let e = extent.abs().as_dvec3();
+    let m = e.max_element();
+    if m == 0.0 {
+        0.0
+    } else {
+        (m * (e / m).length()) as f32
+    }
 }
 
 /// The file formats vunify reads.

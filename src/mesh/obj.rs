@@ -93,7 +93,11 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
 /// Returns the number of `v` records.
 fn validate(bytes: &[u8], path: &Path) -> Result<usize, InputError> {
     let text = super::error::utf8_text(bytes, path, "is this really an OBJ file?")?;
+    // A UTF-8 byte-order mark, as some editors write, is not part of the first record.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
+    // Whether the first `v` record has colours (x y z r g b), and its line: every other must agree.
+    let mut colored: Option<(bool, usize)> = None;
     // Positive indices may refer forward; they are checked against the final counts at the end.
     let mut max_ref: [(usize, usize); 3] = [(0, 0); 3];
     for (i, raw) in text.lines().enumerate() {
@@ -146,6 +150,25 @@ fn validate(bytes: &[u8], path: &Path) -> Result<usize, InputError> {
                         line,
                         "vertex: expected x y z [w] or x y z r g b, found 5 numbers",
                     ));
+                }
+                let has_color = rest.len() >= 6;
+                match colored {
+                    None => colored = Some((has_color, line)),
+                    Some((first, at)) if first != has_color => {
+                        let (this, that) = if first {
+                            ("no colour", "one")
+                        } else {
+                            ("a colour", "none")
+                        };
+                        return Err(InputError::line(
+                            path,
+                            line,
+                            format!(
+                                "vertex: has {this}, but the first vertex (line {at}) has {that}: give every vertex r g b, or none"
+                            ),
+                        ));
+                    }
+                    Some(_) => {}
                 }
                 nv += 1;
             }

@@ -25,6 +25,8 @@ impl<'a> Lines<'a> {
 
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let text = super::error::utf8_text(bytes, path, "binary OFF is not supported")?;
+    // A UTF-8 byte-order mark, as some editors write, is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = Lines {
         inner: text.lines().enumerate(),
     };
@@ -129,12 +131,19 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
                 format!("face: vertex count {:?} is not an integer", t[0]),
             )
         })?;
-        if n < 3 || t.len() - 1 < n {
+        if n < 3 {
+            return Err(InputError::line(
+                path,
+                line,
+                format!("face: a face needs at least 3 vertices, the count says {n}"),
+            ));
+        }
+        if t.len() - 1 < n {
             return Err(InputError::line(
                 path,
                 line,
                 format!(
-                    "face: expected at least 3 vertex indices after the count, found {}",
+                    "face: the count says {n} vertex indices, the line has {}",
                     t.len() - 1
                 ),
             ));

@@ -68,6 +68,74 @@ fn find_header_end(bytes: &[u8]) -> Option<usize> {
     Some(at + nl + 1)
 }
 
+/// The first line of a message from ply-rs-bw, whose errors go on with a multi-line dump of its
+/// parser state.
+fn first_line(e: &impl std::fmt::Display) -> String {
+    let text = e.to_string();
+    text.lines().next().unwrap_or_default().trim().to_string()
+}
+
+/// What ply-rs-bw accepts silently and vunify does not: an element or a property declared twice
+/// (the second would replace the first), and an element that has records but no properties (which
+/// take no bytes, so no file size bounds their count). Line numbers are 1-based.
+fn check_declarations(header: &[u8], path: &Path) -> Result<(), InputError> {
+    let text = String::from_utf8_lossy(header);
+    let mut elements: Vec<&str> = Vec::new();
+    let mut properties: Vec<&str> = Vec::new();
+    let mut records = 0u64;
+    let mut declared_at = 0;
+    let no_properties = |name: &str, records: u64, line: usize| {
+        InputError::line(
+            path,
+            line,
+            format!("element '{name}' has {records} records but no properties"),
+        )
+    };
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let mut tokens = raw.split_whitespace();
+        match tokens.next() {
+            Some("element") | Some("end_header") => {
+                if let Some(&last) = elements.last()
+                    && properties.is_empty()
+                    && records > 0
+                {
+                    return Err(no_properties(last, records, declared_at));
+                }
+                let Some(name) = tokens.next() else { continue };
+                if raw.trim_start().starts_with("end_header") {
+                    continue;
+                }
+                if elements.contains(&name) {
+                    return Err(InputError::line(
+                        path,
+                        line,
+                        format!("element '{name}' is declared twice"),
+                    ));
+                }
+                elements.push(name);
+                properties.clear();
+                records = tokens.next().and_then(|c| c.parse().ok()).unwrap_or(0);
+                declared_at = line;
+            }
+            Some("property") => {
+                let Some(name) = tokens.last() else { continue };
+                if properties.contains(&name) {
+                    let element = elements.last().copied().unwrap_or("?");
+                    return Err(InputError::line(
+                        path,
+                        line,
+                        format!("property '{name}' of element '{element}' is declared twice"),
+                    ));
+                }
+                properties.push(name);
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     if !bytes.starts_with(b"ply") {
         return Err(InputError::byte(path, 0, "missing the 'ply' magic line"));
@@ -79,9 +147,12 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let header = parser
         .read_ply_header(&mut &bytes[..header_len])
         .map_err(|e| match e.line() {
-            Some(line) => InputError::line(path, line, format!("bad PLY header: {e}")),
-            None => InputError::whole(path, format!("bad PLY header: {e}")),
+            Some(line) => {
+                InputError::line(path, line, format!("bad PLY header: {}", first_line(&e)))
+            }
+            None => InputError::whole(path, format!("bad PLY header: {}", first_line(&e))),
         })?;
+    check_declarations(&bytes[..header_len], path)?;
 
     let elements: Vec<&ElementDef> = header.elements.values().collect();
     let binary = header.encoding != Encoding::Ascii;
@@ -138,11 +209,16 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let ply = parser
         .read_ply(&mut &bytes[..])
         .map_err(|e| match (e.line(), binary) {
-            (Some(line), false) => InputError::line(path, line, format!("bad PLY data: {e}")),
+            (Some(line), false) => {
+                InputError::line(path, line, format!("bad PLY data: {}", first_line(&e)))
+            }
             _ => InputError::byte(
                 path,
                 header_len as u64,
-                format!("bad PLY data in the payload that starts here: {e}"),
+                format!(
+                    "bad PLY data in the payload that starts here: {}",
+                    first_line(&e)
+                ),
             ),
         })?;
 

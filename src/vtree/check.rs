@@ -135,7 +135,7 @@ pub fn check(tree: &VertexTree) -> Result<(), TreeProblem> {
                     Vec3::from_slice(&child.sphere),
                 );
                 let slack = 1e-5 * (node.sphere[3] + cu.abs().max_element() + 1e-6);
-                if cu.distance(cc) + child.sphere[3] > node.sphere[3] + slack {
+                if crate::mesh::diagonal_of(cu - cc) + child.sphere[3] > node.sphere[3] + slack {
                     return Err(TreeProblem::SphereMissesChild { node: u, child: c });
                 }
             }
@@ -178,7 +178,8 @@ pub fn check(tree: &VertexTree) -> Result<(), TreeProblem> {
 impl super::Node {
     fn sphere_contains(&self, p: Vec3) -> bool {
         let c = Vec3::from_slice(&self.sphere);
-        c.distance(p) <= self.sphere[3] * (1.0 + 1e-5) + 1e-6 * (1.0 + c.abs().max_element())
+        crate::mesh::diagonal_of(c - p)
+            <= self.sphere[3] * (1.0 + 1e-5) + 1e-6 * (1.0 + c.abs().max_element())
     }
 }
 

@@ -103,8 +103,15 @@ pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
 }
 
 /// Writes atomically: a temporary file beside `path`, flushed to disk, then renamed over it, so a
-/// crash leaves either the old file or the new one, never half of one.
+/// crash leaves either the old file or the new one, never half of one. A tree that the reader would
+/// reject ([`check`](super::check)) is not written: that would be a bug, and it is reported as one.
 pub fn write(tree: &VertexTree, path: &Path) -> std::io::Result<()> {
+    super::check(tree).map_err(|problem| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the tree is inconsistent, so it was not written (a bug in vunify): {problem}"),
+        )
+    })?;
     crate::export::write_atomic(path, &to_bytes(tree))
 }
 

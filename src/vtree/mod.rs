@@ -175,7 +175,7 @@ impl VertexTree {
         if leaves.is_empty() {
             0.0
         } else {
-            (hi - lo).length()
+            crate::mesh::diagonal_of(hi - lo)
         }
     }
 }
@@ -192,10 +192,46 @@ impl VertexTree {
             .iter()
             .fold(Vec3::NEG_INFINITY, |a, n| a.max(n.position()));
         (
-            (lo + hi) * 0.5,
-            ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),
+            lo * 0.5 + hi * 0.5,
+            (crate::mesh::diagonal_of(hi - lo) * 0.5).max(f32::MIN_POSITIVE),
         )
     }
+
+    /// Whether the renderer and camera paths can work with this tree: its diagonal between
+    /// [`VIEWABLE_SCALE`]'s bounds. Outside them, a camera's projection underflows or overflows in
+    /// `f32` (a model 1e-30 across renders blank); the builder itself works at any scale.
+    pub fn check_viewable(&self) -> Result<(), ScaleError> {
+        let diagonal = self.diagonal();
+        if (VIEWABLE_SCALE.0..=VIEWABLE_SCALE.1).contains(&diagonal) {
+            Ok(())
+        } else {
+            Err(ScaleError { diagonal })
+        }
+    }
+
+    /// Multiplies every length in the tree by `factor` (positions, spheres, errors), exactly when it is
+    /// a power of two.
+    pub(crate) fn scale_lengths(&mut self, factor: f32) {
+        for n in &mut self.nodes {
+            n.position = n.position.map(|x| x * factor);
+            n.error *= factor;
+            n.sphere = n.sphere.map(|x| x * factor);
+        }
+    }
+}
+
+/// The model sizes (bounding-box diagonal, in its own units) that can be viewed and rendered.
+pub const VIEWABLE_SCALE: (f32, f32) = (1e-15, 1e15);
+
+/// A model too small or too large to view (see [`VertexTree::check_viewable`]).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "the model is {diagonal:e} units across; vunify views and renders models from {:e} to {:e} units across: scale it into that range first",
+    VIEWABLE_SCALE.0,
+    VIEWABLE_SCALE.1
+)]
+pub struct ScaleError {
+    pub diagonal: f32,
 }
 
 /// Why a model could not be opened as a tree.
