@@ -4,9 +4,10 @@
 #   scripts/test.sh
 #
 # Installs what the suite needs when it is missing (Mesa lavapipe, the software Vulkan driver the GPU
-# tests render with; Xvfb and the X libraries winit loads, for the viewer's test), then runs every
-# test. Set VUNIFY_MODELS to a folder of the real models (see ../shared/models/README.md) to include
-# the tests on them; CI does.
+# tests render with; Xvfb and the X libraries winit loads, for the viewer's test; cargo-fuzz), then
+# checks formatting and lints, runs every test, and fuzzes each input reader briefly. Set
+# VUNIFY_MODELS to a folder of the real test models (the README lists them) to include the tests on
+# them; CI does. FUZZ_SECONDS (default 30) sets the fuzzing time per reader; 0 skips it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -25,17 +26,25 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
   chmod 700 "$XDG_RUNTIME_DIR"
 fi
 
-# The algorithms (builder, runtime) build with no GPU crate at all.
-cargo check --lib --bins --no-default-features --locked
-cargo check --benches --examples --locked   # must keep compiling; they run with `cargo bench` / `cargo run --example`
+# The house style and the lints (Cargo.toml's [lints]), held by CI.
+cargo fmt --check
+cargo clippy --locked --all-targets --all-features -- -D warnings
+# The algorithms (builder, runtime) build with no GPU crate at all, and the CLI without the renderer.
+cargo check --lib --no-default-features --locked
+cargo check --lib --bins --no-default-features --features cli --locked
+cargo check --benches --examples --all-features --locked   # must keep compiling; they run with `cargo bench` / `cargo run --example`
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 cargo test --doc --locked 2>&1 | tee "$log"
 cargo test --lib --bins --tests --locked --no-fail-fast 2>&1 | tee -a "$log"
-# The runtime's benchmark on the dragon (issue 3 §7), a short run: its numbers are printed, not
-# asserted (BENCHMARKS.md has the full runs); without a GPU crate, so it builds quickly.
+# The runtime's benchmark on the dragon, a short run: its numbers are printed, not asserted
+# (BENCHMARKS.md has the full runs); without a GPU crate, so it builds quickly.
 if [ -n "${VUNIFY_MODELS:-}" ]; then
-  cargo bench --locked --no-default-features --bench refine -- --models dragon --frames 60
+  cargo bench --locked --no-default-features --features trace --bench refine -- --models dragon --frames 60
+fi
+# Each input reader fuzzed for a short while (scripts/fuzz.sh; longer runs are for development).
+if [ "${FUZZ_SECONDS:-30}" != 0 ]; then
+  scripts/fuzz.sh "${FUZZ_SECONDS:-30}"
 fi
 # One closing line over every test binary above.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($i ~ /^passed/) p += $(i-1); if ($i ~ /^failed/) f += $(i-1) } }

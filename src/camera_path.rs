@@ -25,7 +25,7 @@ pub const MAX_SECONDS: f32 = 86_400.0;
 
 /// The largest number a keyframe may hold: squares and cross products of such numbers stay finite in
 /// `f32`, so every sample of a valid path is a finite camera.
-pub const MAX_COORDINATE: f32 = 1e15;
+pub const MAX_COORDINATE: f32 = 1e18;
 
 /// Vertical field of view when a keyframe names none.
 pub const DEFAULT_FOV_DEG: f32 = 50.0;

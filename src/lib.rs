@@ -10,6 +10,8 @@ pub mod app;
 pub mod camera_path;
 pub mod display;
 pub mod export;
+#[doc(hidden)]
+pub mod fixtures;
 pub mod measure;
 pub mod mesh;
 pub mod refine;

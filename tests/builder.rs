@@ -137,7 +137,7 @@ fn assert_tree_invariants(mesh: &Mesh, tree: &VertexTree) {
     );
 }
 
-/// Seed 001 Fig. 2: a tetrahedron beside a separate triangle (see `collapse.rs` for the single merge).
+/// Tao et al.'s Fig. 2: a tetrahedron beside a separate triangle (see `collapse.rs` for the single merge).
 /// ```text
 ///        3                  6
 ///       /|\                / \

@@ -237,3 +237,89 @@ fn closed_stdout_ends_quietly() {
         );
     }
 }
+
+/// `kill -9` while `vunify build` writes over an existing tree, at several moments (before, during
+/// and after the build, and the moment its temporary file appears): the old file stays byte for byte
+/// (or, when the build had finished, the new file is whole), and the next run leaves no temporary
+/// file behind.
+#[test]
+fn kill_9_during_a_build_keeps_the_old_tree() {
+    let dir = tmp("kill9");
+    std::fs::create_dir_all(&dir).unwrap();
+    // A 250 × 250 grid (125,000 triangles): a build long enough to be killed in.
+    let big = dir.join("big.obj");
+    let mut text = String::new();
+    let n = 250;
+    for y in 0..=n {
+        for x in 0..=n {
+            text += &format!("v {x} {y} {}\n", ((x * y) as f32 * 0.01).sin());
+        }
+    }
+    let id = |x: u32, y: u32| y * (n + 1) + x + 1;
+    for y in 0..n {
+        for x in 0..n {
+            text += &format!("f {} {} {}\n", id(x, y), id(x + 1, y), id(x + 1, y + 1));
+            text += &format!("f {} {} {}\n", id(x, y), id(x + 1, y + 1), id(x, y + 1));
+        }
+    }
+    std::fs::write(&big, text).unwrap();
+    let small = dir.join("small.obj");
+    std::fs::write(
+        &small,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\nf 1 2 3\nf 2 4 3\n",
+    )
+    .unwrap();
+    let out = dir.join("model.vtree");
+    let (b, s, o) = (
+        big.to_str().unwrap(),
+        small.to_str().unwrap(),
+        out.to_str().unwrap(),
+    );
+    ok(&vunify(&["build", s, "-o", o]));
+    let mut old = std::fs::read(&out).unwrap();
+    let temporaries = || {
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
+            .count()
+    };
+    let mut killed_with_temporary = false;
+    // The moment the temporary file appears comes last: each later run removes what a killed one left.
+    for delay_ms in [Some(0), Some(30), Some(100), Some(300), Some(1000), None] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vunify"))
+            .args(["build", b, "-o", o])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        match delay_ms {
+            Some(ms) => std::thread::sleep(std::time::Duration::from_millis(ms)),
+            // The moment the temporary file appears (or the build ends).
+            None => {
+                while temporaries() == 0 && child.try_wait().unwrap().is_none() {
+                    std::thread::sleep(std::time::Duration::from_micros(200));
+                }
+                killed_with_temporary = temporaries() > 0;
+            }
+        }
+        child.kill().ok();
+        child.wait().unwrap();
+        let now = std::fs::read(&out).unwrap();
+        if now != old {
+            // The build finished before the kill: the new tree is whole.
+            ok(&vunify(&["info", o, "--check"]));
+            old = now;
+        }
+    }
+    assert!(
+        killed_with_temporary,
+        "no run was killed while its temporary file existed"
+    );
+    assert!(temporaries() > 0, "a killed run left its temporary file");
+    // The next run removes what killed runs left.
+    ok(&vunify(&["build", s, "-o", o]));
+    assert_eq!(temporaries(), 0, "temporary files left behind");
+    ok(&vunify(&["info", o, "--check"]));
+    std::fs::remove_dir_all(&dir).ok();
+}

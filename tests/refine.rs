@@ -70,7 +70,7 @@ fn assert_refines_to_input(mesh: &Mesh, tree: &VertexTree) {
     assert_eq!(f.triangle_count(), 0);
 }
 
-/// Seed 001 Fig. 2 again (tetrahedron beside a triangle), now refined by hand in an order the build
+/// Tao et al.'s Fig. 2 again (tetrahedron beside a triangle), now refined by hand in an order the build
 /// never used.
 /// ```text
 ///        3                  6

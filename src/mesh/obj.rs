@@ -10,6 +10,8 @@ use glam::Vec3;
 use std::path::Path;
 
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
+    // A UTF-8 byte-order mark, as some editors write, is not part of the first record.
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
     let declared = validate(bytes, path)?;
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -93,8 +95,6 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
 /// Returns the number of `v` records.
 fn validate(bytes: &[u8], path: &Path) -> Result<usize, InputError> {
     let text = super::error::utf8_text(bytes, path, "is this really an OBJ file?")?;
-    // A UTF-8 byte-order mark, as some editors write, is not part of the first record.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let (mut nv, mut nvt, mut nvn) = (0usize, 0usize, 0usize);
     // Whether the first `v` record has colours (x y z r g b), and its line: every other must agree.
     let mut colored: Option<(bool, usize)> = None;

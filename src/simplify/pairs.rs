@@ -42,13 +42,15 @@ pub fn close_pairs(
             let mut near: Vec<(f32, u32)> = Vec::new();
             for dx in -1..=1 {
                 for dy in -1..=1 {
-                    let Some(&(start, end)) = columns.get(&[cell[0] + dx, cell[1] + dy]) else {
+                    let Some(&(start, end)) =
+                        columns.get(&[cell[0].saturating_add(dx), cell[1].saturating_add(dy)])
+                    else {
                         continue;
                     };
                     let run = &sorted[start..end];
-                    let from = run.partition_point(|q| q.0[2] < cell[2] - 1);
+                    let from = run.partition_point(|q| q.0[2] < cell[2].saturating_sub(1));
                     for &(c, other, q) in &run[from..] {
-                        if c[2] > cell[2] + 1 {
+                        if c[2] > cell[2].saturating_add(1) {
                             break;
                         }
                         let d2 = p.distance_squared(q);

@@ -24,31 +24,8 @@ pub fn grid(w: u32, h: u32, height: impl Fn(f32, f32) -> f32) -> Mesh {
     Mesh::from_triangles(p, t)
 }
 
-/// Seed 001 Fig. 2: a tetrahedron (vertices 0–3, faces 0–3) beside a separate triangle (4 5 6, face 4).
-/// ```text
-///        3                  6
-///       /|\                / \
-///      / | \              /   \
-///     0--|--2            4-----5
-///      \ | /
-///       \|/
-///        1
-/// ```
-pub fn fig2() -> Mesh {
-    let p = vec![
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(4.0, 0.0, 0.0),
-        Vec3::new(5.0, 0.0, 0.0),
-        Vec3::new(4.5, 0.0, 1.0),
-    ];
-    Mesh::from_triangles(
-        p,
-        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [4, 5, 6]],
-    )
-}
+#[allow(unused_imports)]
+pub use vunify::fixtures::fig2;
 
 /// Several meshes side by side as one scene, one part each.
 pub fn scene(meshes: &[Mesh], spacing: f32) -> Mesh {
