@@ -19,8 +19,11 @@ struct Counting;
 static LIVE: AtomicUsize = AtomicUsize::new(0);
 static PEAK: AtomicUsize = AtomicUsize::new(0);
 
+// SAFETY: every call is forwarded to the system allocator with the caller's arguments unchanged;
+// the counters only observe sizes.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        // SAFETY: the caller's `alloc` contract, passed on.
         let p = unsafe { System.alloc(l) };
         if !p.is_null() {
             let now = LIVE.fetch_add(l.size(), Relaxed) + l.size();
@@ -29,10 +32,12 @@ unsafe impl GlobalAlloc for Counting {
         p
     }
     unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        // SAFETY: `p` came from this allocator, which is the system's, with layout `l`.
         unsafe { System.dealloc(p, l) };
         LIVE.fetch_sub(l.size(), Relaxed);
     }
     unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        // SAFETY: as for `dealloc`; the caller's `realloc` contract, passed on.
         let q = unsafe { System.realloc(p, l, new) };
         if !q.is_null() {
             if new > l.size() {
@@ -176,76 +181,93 @@ fn main() {
     }
 
     if !flag("--skip-quality") {
-        println!(
-            "\n## Quality: Hausdorff distance (% of bbox diagonal) of `extract` vs meshopt at the same triangle count\n"
-        );
-        println!(
-            "| model | level | triangles | vunify mean | meshopt mean | mean ratio | vunify max | meshopt max | max ratio | greedy mean / max |"
-        );
-        println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-        for (m, mesh, tree, greedy_tree) in &loaded {
-            for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
-                let target = (mesh.triangle_count() as f64 * ratio) as usize;
-                let mo = meshopt_simplify(mesh, target);
-                let cut = vtree::cut_at_triangles(tree, mo.triangle_count() as u32);
-                let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
-                let hm = vunify::measure::hausdorff(mesh, &mo, samples).symmetric;
-                let gcut = vtree::cut_at_triangles(greedy_tree, mo.triangle_count() as u32);
-                let hg = vunify::measure::hausdorff(mesh, &gcut.mesh, samples).symmetric;
-                println!(
-                    "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} | {:.4} / {:.4} |",
-                    cut.mesh.triangle_count(),
-                    mo.triangle_count(),
-                    100.0 * hv.mean,
-                    100.0 * hm.mean,
-                    hv.mean / hm.mean.max(1e-12),
-                    100.0 * hv.max,
-                    100.0 * hm.max,
-                    hv.max / hm.max.max(1e-12),
-                    100.0 * hg.mean,
-                    100.0 * hg.max
-                );
-            }
+        quality_table(&loaded, samples);
+    }
+    if !flag("--skip-metrics") {
+        metrics_table(&loaded, samples);
+    }
+}
+
+/// A model, its tree and its greedy-schedule tree.
+type Loaded = (
+    String,
+    vunify::mesh::Mesh,
+    vtree::VertexTree,
+    vtree::VertexTree,
+);
+
+/// Hausdorff distance of `extract` against meshopt at the same triangle count.
+fn quality_table(loaded: &[Loaded], samples: usize) {
+    println!(
+        "\n## Quality: Hausdorff distance (% of bbox diagonal) of `extract` vs meshopt at the same triangle count\n"
+    );
+    println!(
+        "| model | level | triangles | vunify mean | meshopt mean | mean ratio | vunify max | meshopt max | max ratio | greedy mean / max |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (m, mesh, tree, greedy_tree) in loaded {
+        for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
+            let target = (mesh.triangle_count() as f64 * ratio) as usize;
+            let mo = meshopt_simplify(mesh, target);
+            let cut = vtree::cut_at_triangles(tree, mo.triangle_count() as u32);
+            let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
+            let hm = vunify::measure::hausdorff(mesh, &mo, samples).symmetric;
+            let gcut = vtree::cut_at_triangles(greedy_tree, mo.triangle_count() as u32);
+            let hg = vunify::measure::hausdorff(mesh, &gcut.mesh, samples).symmetric;
+            println!(
+                "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} | {:.4} / {:.4} |",
+                cut.mesh.triangle_count(),
+                mo.triangle_count(),
+                100.0 * hv.mean,
+                100.0 * hm.mean,
+                hv.mean / hm.mean.max(1e-12),
+                100.0 * hv.max,
+                100.0 * hm.max,
+                hv.max / hm.max.max(1e-12),
+                100.0 * hg.mean,
+                100.0 * hg.max
+            );
         }
     }
+}
 
-    if !flag("--skip-metrics") {
-        println!(
-            "\n## The four metrics (Chen's comparison of metrics): Hausdorff mean / max (% of diagonal), build seconds\n"
-        );
-        println!("| model | level | qem | qem-midpoint | edge-length | hybrid |");
-        println!("|---|---|---|---|---|---|");
-        for (m, mesh, _, _) in &loaded {
-            let metrics = [
-                Metric::Qem,
-                Metric::QemMidpoint,
-                Metric::EdgeLength,
-                Metric::Hybrid,
-            ];
-            let trees: Vec<(vtree::VertexTree, f64)> = metrics
+/// The four metrics side by side, at 10 % and 1 %.
+fn metrics_table(loaded: &[Loaded], samples: usize) {
+    println!(
+        "\n## The four metrics (Chen's comparison of metrics): Hausdorff mean / max (% of diagonal), build seconds\n"
+    );
+    println!("| model | level | qem | qem-midpoint | edge-length | hybrid |");
+    println!("|---|---|---|---|---|---|");
+    for (m, mesh, _, _) in loaded {
+        let metrics = [
+            Metric::Qem,
+            Metric::QemMidpoint,
+            Metric::EdgeLength,
+            Metric::Hybrid,
+        ];
+        let trees: Vec<(vtree::VertexTree, f64)> = metrics
+            .iter()
+            .map(|&metric| {
+                let o = BuildOptions {
+                    metric,
+                    ..Default::default()
+                };
+                let (tree, s, _) =
+                    measured(|| vtree::build(mesh, &o, &mut |_, _| {}).expect("build").0);
+                (tree, s)
+            })
+            .collect();
+        for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
+            let target = (mesh.triangle_count() as f64 * ratio) as u32;
+            let cells: Vec<String> = trees
                 .iter()
-                .map(|&metric| {
-                    let o = BuildOptions {
-                        metric,
-                        ..Default::default()
-                    };
-                    let (tree, s, _) =
-                        measured(|| vtree::build(mesh, &o, &mut |_, _| {}).expect("build").0);
-                    (tree, s)
+                .map(|(tree, s)| {
+                    let cut = vtree::cut_at_triangles(tree, target);
+                    let h = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
+                    format!("{:.4} / {:.3} ({s:.2} s)", 100.0 * h.mean, 100.0 * h.max)
                 })
                 .collect();
-            for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
-                let target = (mesh.triangle_count() as f64 * ratio) as u32;
-                let cells: Vec<String> = trees
-                    .iter()
-                    .map(|(tree, s)| {
-                        let cut = vtree::cut_at_triangles(tree, target);
-                        let h = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
-                        format!("{:.4} / {:.3} ({s:.2} s)", 100.0 * h.mean, 100.0 * h.max)
-                    })
-                    .collect();
-                println!("| {m} | {label} | {} |", cells.join(" | "));
-            }
+            println!("| {m} | {label} | {} |", cells.join(" | "));
         }
     }
 }

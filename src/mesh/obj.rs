@@ -180,60 +180,7 @@ fn validate(bytes: &[u8], path: &Path) -> Result<usize, InputError> {
                 floats(3, 3, "normal")?;
                 nvn += 1;
             }
-            "f" => {
-                if rest.len() < 3 {
-                    return Err(InputError::line(
-                        path,
-                        line,
-                        format!("face: needs at least 3 vertices, found {}", rest.len()),
-                    ));
-                }
-                for tok in &rest {
-                    let parts: Vec<&str> = tok.split('/').collect();
-                    if parts.len() > 3 || parts[0].is_empty() {
-                        return Err(InputError::line(
-                            path,
-                            line,
-                            format!("face: malformed vertex reference {tok:?}"),
-                        ));
-                    }
-                    let counts = [nv, nvt, nvn];
-                    for (k, part) in parts.iter().enumerate() {
-                        if part.is_empty() {
-                            continue;
-                        }
-                        let idx: i64 = part.parse().map_err(|_| {
-                            InputError::line(
-                                path,
-                                line,
-                                format!("face: index {part:?} in {tok:?} is not an integer"),
-                            )
-                        })?;
-                        let kind = ["vertex", "texture coordinate", "normal"][k];
-                        if idx == 0 {
-                            return Err(InputError::line(
-                                path,
-                                line,
-                                format!("face: {kind} index 0 (OBJ indices start at 1)"),
-                            ));
-                        }
-                        if idx < 0 {
-                            if idx.unsigned_abs() as usize > counts[k] {
-                                return Err(InputError::line(
-                                    path,
-                                    line,
-                                    format!(
-                                        "face: relative {kind} index {idx} reaches before the first of {} defined so far",
-                                        counts[k]
-                                    ),
-                                ));
-                            }
-                        } else if idx as usize > max_ref[k].0 {
-                            max_ref[k] = (idx as usize, line);
-                        }
-                    }
-                }
-            }
+            "f" => check_face(&rest, line, [nv, nvt, nvn], &mut max_ref, path)?,
             _ => {}
         }
     }
@@ -249,4 +196,69 @@ fn validate(bytes: &[u8], path: &Path) -> Result<usize, InputError> {
         }
     }
     Ok(nv)
+}
+
+/// Checks the vertex references of an `f` record on line `line` (`rest`: its tokens after `f`)
+/// against the `counts` of vertices, texture coordinates and normals so far; the largest positive
+/// index of each kind, and its line, goes to `max_ref` (positive indices may refer forward, so they
+/// are checked at the end).
+fn check_face(
+    rest: &[&str],
+    line: usize,
+    counts: [usize; 3],
+    max_ref: &mut [(usize, usize); 3],
+    path: &Path,
+) -> Result<(), InputError> {
+    if rest.len() < 3 {
+        return Err(InputError::line(
+            path,
+            line,
+            format!("face: needs at least 3 vertices, found {}", rest.len()),
+        ));
+    }
+    for tok in rest {
+        let parts: Vec<&str> = tok.split('/').collect();
+        if parts.len() > 3 || parts[0].is_empty() {
+            return Err(InputError::line(
+                path,
+                line,
+                format!("face: malformed vertex reference {tok:?}"),
+            ));
+        }
+        for (k, part) in parts.iter().enumerate() {
+            if part.is_empty() {
+                continue;
+            }
+            let idx: i64 = part.parse().map_err(|_| {
+                InputError::line(
+                    path,
+                    line,
+                    format!("face: index {part:?} in {tok:?} is not an integer"),
+                )
+            })?;
+            let kind = ["vertex", "texture coordinate", "normal"][k];
+            if idx == 0 {
+                return Err(InputError::line(
+                    path,
+                    line,
+                    format!("face: {kind} index 0 (OBJ indices start at 1)"),
+                ));
+            }
+            if idx < 0 {
+                if idx.unsigned_abs() as usize > counts[k] {
+                    return Err(InputError::line(
+                        path,
+                        line,
+                        format!(
+                            "face: relative {kind} index {idx} reaches before the first of {} defined so far",
+                            counts[k]
+                        ),
+                    ));
+                }
+            } else if idx as usize > max_ref[k].0 {
+                max_ref[k] = (idx as usize, line);
+            }
+        }
+    }
+    Ok(())
 }

@@ -85,6 +85,24 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         ));
     }
 
+    let (positions, colors) = read_vertices(&mut lines, nv, colored, path)?;
+    let triangles = read_faces(&mut lines, nf, nv, path)?;
+    Ok(Mesh {
+        colors: colored.then_some(colors),
+        normals: None,
+        ..Mesh::from_triangles(positions, triangles)
+    })
+}
+
+/// The `nv` vertex records (`x y z`, and with `colored` `r g b` after them).
+fn read_vertices<'t>(
+    lines: &mut Lines<'t>,
+    nv: usize,
+    colored: bool,
+    path: &Path,
+) -> Result<(Vec<Vec3>, Vec<Vec3>), InputError> {
+    let eof =
+        |what: &str| InputError::whole(path, format!("unexpected end of file: expected {what}"));
     let mut positions = Vec::with_capacity(nv);
     let mut colors = Vec::new();
     for k in 0..nv {
@@ -119,6 +137,18 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             colors.push(if c.max_element() > 1.0 { c / 255.0 } else { c });
         }
     }
+    Ok((positions, colors))
+}
+
+/// The `nf` face records (a vertex count, then that many indices below `nv`), as fans of triangles.
+fn read_faces<'t>(
+    lines: &mut Lines<'t>,
+    nf: usize,
+    nv: usize,
+    path: &Path,
+) -> Result<Vec<[u32; 3]>, InputError> {
+    let eof =
+        |what: &str| InputError::whole(path, format!("unexpected end of file: expected {what}"));
     let mut triangles = Vec::with_capacity(nf);
     for k in 0..nf {
         let (line, t) = lines
@@ -171,9 +201,5 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             triangles.push([idx[0], idx[j], idx[j + 1]]);
         }
     }
-    Ok(Mesh {
-        colors: colored.then_some(colors),
-        normals: None,
-        ..Mesh::from_triangles(positions, triangles)
-    })
+    Ok(triangles)
 }

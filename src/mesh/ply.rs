@@ -61,6 +61,9 @@ fn as_indices(p: &Property) -> Option<Vec<i64>> {
     })
 }
 
+/// Where an element's records start: `(base, record size, fixed size)` (see [`record_starts`]).
+type RecordStart = (u64, u64, bool);
+
 fn find_header_end(bytes: &[u8]) -> Option<usize> {
     let key = b"end_header";
     let at = bytes.windows(key.len()).position(|w| w == key)?;
@@ -157,47 +160,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     let elements: Vec<&ElementDef> = header.elements.values().collect();
     let binary = header.encoding != Encoding::Ascii;
     let payload_len = (bytes.len() - header_len) as u64;
-    // Where record k of element e starts, when it can be known without reading (None for variable records).
-    let mut starts = Vec::with_capacity(elements.len());
-    let mut offset = Some(0u64);
-    let mut line = header_lines as u64;
-    let mut min_total = 0u64;
-    for e in &elements {
-        let (size, fixed) = record_size(e);
-        starts.push(if binary {
-            offset.map(|o| (o, size, fixed))
-        } else {
-            Some((line, 1, true))
-        });
-        let count = e.count as u64;
-        min_total = min_total.saturating_add(if binary {
-            count.saturating_mul(size)
-        } else {
-            count.saturating_mul(2)
-        });
-        if min_total > payload_len {
-            let at = header_len as u64 + payload_len;
-            let what = if binary {
-                format!("at least {min_total} bytes")
-            } else {
-                format!("{count} more lines")
-            };
-            return Err(InputError::byte(
-                path,
-                at,
-                format!(
-                    "truncated file: element '{}' ({count} records) needs {what} of payload after the {header_len}-byte header, the file ends here",
-                    e.name
-                ),
-            ));
-        }
-        offset = if fixed {
-            offset.map(|o| o + count * size)
-        } else {
-            None
-        };
-        line += count;
-    }
+    let starts = record_starts(
+        &elements,
+        binary,
+        header_len,
+        header_lines,
+        payload_len,
+        path,
+    )?;
     let locate = |element: usize, k: usize| -> Location {
         match starts[element] {
             Some((base, _, true)) if !binary => Location::Line((base + k as u64 + 1) as usize),
@@ -282,30 +252,97 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             normals.push(get3(v, k, ["nx", "ny", "nz"])?);
         }
     }
+    let triangles = fan_triangles(faces, positions.len(), |k, msg| bad(fi, k, msg))?;
+    Ok(Mesh {
+        colors: has_colors.then_some(colors),
+        normals: has_normals.then_some(normals),
+        ..Mesh::from_triangles(positions, triangles)
+    })
+}
+
+/// Where record k of each element starts, when it can be known without reading: `(first line, 1,
+/// true)` in ASCII, `(byte offset, record size, true)` for fixed-size binary records, `None` after a
+/// variable-size binary element. Checks first that the header's counts fit in the payload (each
+/// record takes at least a line or its fixed bytes), so that no count the file cannot hold is ever
+/// trusted for an allocation.
+fn record_starts(
+    elements: &[&ElementDef],
+    binary: bool,
+    header_len: usize,
+    header_lines: usize,
+    payload_len: u64,
+    path: &Path,
+) -> Result<Vec<Option<RecordStart>>, InputError> {
+    // Where record k of element e starts, when it can be known without reading (None for variable records).
+    let mut starts = Vec::with_capacity(elements.len());
+    let mut offset = Some(0u64);
+    let mut line = header_lines as u64;
+    let mut min_total = 0u64;
+    for e in elements {
+        let (size, fixed) = record_size(e);
+        starts.push(if binary {
+            offset.map(|o| (o, size, fixed))
+        } else {
+            Some((line, 1, true))
+        });
+        let count = e.count as u64;
+        min_total = min_total.saturating_add(if binary {
+            count.saturating_mul(size)
+        } else {
+            count.saturating_mul(2)
+        });
+        if min_total > payload_len {
+            let at = header_len as u64 + payload_len;
+            let what = if binary {
+                format!("at least {min_total} bytes")
+            } else {
+                format!("{count} more lines")
+            };
+            return Err(InputError::byte(
+                path,
+                at,
+                format!(
+                    "truncated file: element '{}' ({count} records) needs {what} of payload after the {header_len}-byte header, the file ends here",
+                    e.name
+                ),
+            ));
+        }
+        offset = if fixed {
+            offset.map(|o| o + count * size)
+        } else {
+            None
+        };
+        line += count;
+    }
+    Ok(starts)
+}
+
+/// The faces' vertex lists as fans of triangles, each index checked against `vertex_count`; `bad`
+/// makes the error for face record k.
+fn fan_triangles(
+    faces: &[DefaultElement],
+    vertex_count: usize,
+    bad: impl Fn(usize, String) -> InputError,
+) -> Result<Vec<[u32; 3]>, InputError> {
     let mut triangles = Vec::with_capacity(faces.len());
     for (k, f) in faces.iter().enumerate() {
         let idx = f
             .get("vertex_indices")
             .or_else(|| f.get("vertex_index"))
             .and_then(as_indices)
-            .ok_or_else(|| bad(fi, k, "no integer list 'vertex_indices'".into()))?;
+            .ok_or_else(|| bad(k, "no integer list 'vertex_indices'".into()))?;
         if idx.len() < 3 {
             return Err(bad(
-                fi,
                 k,
                 format!("a face needs at least 3 vertices, found {}", idx.len()),
             ));
         }
-        if let Some(&i) = idx
-            .iter()
-            .find(|&&i| i < 0 || i as usize >= positions.len())
-        {
+        if let Some(&i) = idx.iter().find(|&&i| i < 0 || i as usize >= vertex_count) {
             return Err(bad(
-                fi,
                 k,
                 format!(
                     "vertex index {i} is out of range (the file has {} vertices)",
-                    positions.len()
+                    vertex_count
                 ),
             ));
         }
@@ -313,9 +350,5 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             triangles.push([idx[0] as u32, idx[j] as u32, idx[j + 1] as u32]);
         }
     }
-    Ok(Mesh {
-        colors: has_colors.then_some(colors),
-        normals: has_normals.then_some(normals),
-        ..Mesh::from_triangles(positions, triangles)
-    })
+    Ok(triangles)
 }

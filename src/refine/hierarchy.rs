@@ -94,27 +94,7 @@ impl Hierarchy {
         let count = tree.nodes.len();
         let old = &tree.nodes;
 
-        // Depth-first numbering: `new_id[old]`, and the old id of each new one.
-        let mut new_id = vec![NIL; count];
-        let mut old_of = vec![NIL; count];
-        let (mut next_leaf, mut next_internal) = (0u32, n);
-        let mut stack = vec![tree.root()];
-        while let Some(u) = stack.pop() {
-            let id = if u < n {
-                next_leaf += 1;
-                next_leaf - 1
-            } else {
-                next_internal += 1;
-                next_internal - 1
-            };
-            new_id[u as usize] = id;
-            old_of[id as usize] = u;
-            if u >= n {
-                let [c0, c1] = old[u as usize].children;
-                stack.push(c1);
-                stack.push(c0);
-            }
-        }
+        let (new_id, old_of) = depth_first_ids(tree);
         let node = |id: u32| &old[old_of[id as usize] as usize];
         let renumber = |u: u32| if u == NIL { NIL } else { new_id[u as usize] };
 
@@ -126,14 +106,7 @@ impl Hierarchy {
             .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
             .collect();
         let color = if tree.has_colors {
-            (0..count as u32)
-                .map(|u| {
-                    let c = node(u)
-                        .color
-                        .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
-                    [c[0], c[1], c[2], 255]
-                })
-                .collect()
+            (0..count as u32).map(|u| display_color(node(u))).collect()
         } else {
             Vec::new()
         };
@@ -154,43 +127,13 @@ impl Hierarchy {
                 (center.distance(x.position()) + x.sphere[3]) * (1.0 + BOUND_SLACK)
             })
             .collect();
-        // Largest normal turn in each subtree, children first (pre-order reversed).
-        let mut turn = vec![0f32; internal.len()];
-        for k in (0..internal.len()).rev() {
-            let n = Vec3::from_array(internal[k].normal);
-            for c in internal_children[k] {
-                let cn = Vec3::from_array(node(c).normal);
-                let angle = if n == Vec3::ZERO || cn == Vec3::ZERO {
-                    0.0
-                } else {
-                    n.dot(cn).clamp(-1.0, 1.0).acos()
-                };
-                let below = if c >= n_leaves {
-                    turn[(c - n_leaves) as usize]
-                } else {
-                    0.0
-                };
-                turn[k] = turn[k].max(angle).max(below);
-            }
-        }
+        let turn = subtree_turns(&internal, &internal_children, |c| node(c).normal, n_leaves);
         let internal_shading: Vec<f32> = turn
             .iter()
             .zip(&internal_radius)
             .map(|(&t, &r)| r * t.min(std::f32::consts::FRAC_PI_2).sin())
             .collect();
-        // Leaf ranges: internal nodes in pre-order, so a reverse sweep meets children first.
-        let mut lo = vec![0u32; internal.len()];
-        let mut hi = vec![0u32; internal.len()];
-        for k in (0..internal.len()).rev() {
-            let [c0, c1] = internal_children[k];
-            let first = if c0 < n { c0 } else { lo[(c0 - n) as usize] };
-            let end = if c1 < n {
-                c1 + 1
-            } else {
-                hi[(c1 - n) as usize]
-            };
-            (lo[k], hi[k]) = (first, end);
-        }
+        let (lo, hi) = leaf_ranges(&internal_children, n);
         let mut internal_nodes: Vec<Internal> = internal_children
             .iter()
             .enumerate()
@@ -246,24 +189,8 @@ impl Hierarchy {
         let triangles = keyed.into_iter().map(|(_, t)| t).collect();
 
         let flip = if inward { -1.0 } else { 1.0 };
-        let internal_cone: Vec<([i16; 2], f32)> = internal
-            .iter()
-            .map(|x| {
-                let axis = Vec3::from_slice(&x.cone) * flip;
-                let cos = x.cone[3];
-                if axis == Vec3::ZERO || cos <= 0.0 {
-                    // Empty (no faces) or a hemisphere and more: never wholly back-facing.
-                    return (NO_NORMAL, f32::INFINITY);
-                }
-                let angle = cos.min(1.0).acos() * (1.0 + BOUND_SLACK) + OCT_ERROR_RADIANS;
-                let sin = if angle >= std::f32::consts::FRAC_PI_2 {
-                    f32::INFINITY
-                } else {
-                    angle.sin()
-                };
-                (encode_normal(axis), sin)
-            })
-            .collect();
+        let internal_cone: Vec<([i16; 2], f32)> =
+            internal.iter().map(|x| runtime_cone(x, flip)).collect();
 
         Hierarchy {
             leaf_count: n,
@@ -481,3 +408,107 @@ pub fn decode_normal(e: [i16; 2]) -> Vec3 {
 
 /// Marks the end of a list or a missing link.
 pub const NIL: u32 = NONE;
+
+/// Depth-first numbering of the tree's nodes (leaves `0..leaf_count` in the order a depth-first walk
+/// meets them, internal nodes after them in pre-order): `new_id[old]`, and the old id of each new
+/// one.
+fn depth_first_ids(tree: &VertexTree) -> (Vec<u32>, Vec<u32>) {
+    let n = tree.leaf_count;
+    let count = tree.nodes.len();
+    let old = &tree.nodes;
+    let mut new_id = vec![NIL; count];
+    let mut old_of = vec![NIL; count];
+    let (mut next_leaf, mut next_internal) = (0u32, n);
+    let mut stack = vec![tree.root()];
+    while let Some(u) = stack.pop() {
+        let id = if u < n {
+            next_leaf += 1;
+            next_leaf - 1
+        } else {
+            next_internal += 1;
+            next_internal - 1
+        };
+        new_id[u as usize] = id;
+        old_of[id as usize] = u;
+        if u >= n {
+            let [c0, c1] = old[u as usize].children;
+            stack.push(c1);
+            stack.push(c0);
+        }
+    }
+    (new_id, old_of)
+}
+
+/// The leaves under each internal node, `lo[k]..hi[k]` (depth-first numbering makes them a range).
+/// Internal nodes are in pre-order, so a reverse sweep meets children first.
+fn leaf_ranges(internal_children: &[[u32; 2]], n: u32) -> (Vec<u32>, Vec<u32>) {
+    let mut lo = vec![0u32; internal_children.len()];
+    let mut hi = vec![0u32; internal_children.len()];
+    for k in (0..internal_children.len()).rev() {
+        let [c0, c1] = internal_children[k];
+        let first = if c0 < n { c0 } else { lo[(c0 - n) as usize] };
+        let end = if c1 < n {
+            c1 + 1
+        } else {
+            hi[(c1 - n) as usize]
+        };
+        (lo[k], hi[k]) = (first, end);
+    }
+    (lo, hi)
+}
+
+/// The largest angle between a node's normal and any normal below it, per internal node, children
+/// first (pre-order reversed); `normal_of(c)` is node `c`'s normal.
+fn subtree_turns(
+    internal: &[&crate::vtree::Node],
+    internal_children: &[[u32; 2]],
+    normal_of: impl Fn(u32) -> [f32; 3],
+    n_leaves: u32,
+) -> Vec<f32> {
+    let mut turn = vec![0f32; internal.len()];
+    for k in (0..internal.len()).rev() {
+        let n = Vec3::from_array(internal[k].normal);
+        for c in internal_children[k] {
+            let cn = Vec3::from_array(normal_of(c));
+            let angle = if n == Vec3::ZERO || cn == Vec3::ZERO {
+                0.0
+            } else {
+                n.dot(cn).clamp(-1.0, 1.0).acos()
+            };
+            let below = if c >= n_leaves {
+                turn[(c - n_leaves) as usize]
+            } else {
+                0.0
+            };
+            turn[k] = turn[k].max(angle).max(below);
+        }
+    }
+    turn
+}
+
+/// A node's normal cone as the back-face test reads it: the axis (flipped for inward-wound models)
+/// encoded, and the sine of the half-angle padded for rounding and the encoding; infinite for a cone
+/// that can never face wholly away.
+fn runtime_cone(x: &crate::vtree::Node, flip: f32) -> ([i16; 2], f32) {
+    let axis = Vec3::from_slice(&x.cone) * flip;
+    let cos = x.cone[3];
+    if axis == Vec3::ZERO || cos <= 0.0 {
+        // Empty (no faces) or a hemisphere and more: never wholly back-facing.
+        return (NO_NORMAL, f32::INFINITY);
+    }
+    let angle = cos.min(1.0).acos() * (1.0 + BOUND_SLACK) + OCT_ERROR_RADIANS;
+    let sin = if angle >= std::f32::consts::FRAC_PI_2 {
+        f32::INFINITY
+    } else {
+        angle.sin()
+    };
+    (encode_normal(axis), sin)
+}
+
+/// A node's colour as 8-bit RGBA.
+fn display_color(node: &crate::vtree::Node) -> [u8; 4] {
+    let c = node
+        .color
+        .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+    [c[0], c[1], c[2], 255]
+}

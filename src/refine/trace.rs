@@ -12,15 +12,19 @@ pub use off::OpClock;
 mod off {
     /// Operation timing, switched off (build with the `trace` feature to switch it on).
     #[derive(Clone, Copy, Debug, Default)]
-    pub struct OpClock;
+    pub struct OpClock {
+        _off: (),
+    }
 
     impl OpClock {
         #[inline(always)]
         pub fn start_frame(&mut self) {}
         #[inline(always)]
-        pub fn start(&self) {}
+        pub fn start(&self) -> u64 {
+            0
+        }
         #[inline(always)]
-        pub fn stop(&mut self, _: ()) {}
+        pub fn stop(&mut self, _: u64) {}
         /// Always 0.
         #[inline(always)]
         pub fn frame_seconds(&mut self, _: f64) -> f64 {

@@ -246,29 +246,7 @@ impl Renderer {
                 resource: globals.as_entire_binding(),
             }],
         });
-        let timer = device
-            .features()
-            .contains(wgpu::Features::TIMESTAMP_QUERY)
-            .then(|| Timer {
-                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
-                    label: Some("frame time"),
-                    ty: wgpu::QueryType::Timestamp,
-                    count: 2,
-                }),
-                resolve: device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("timestamps"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                }),
-                readback: device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("timestamps readback"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                }),
-                period_ns: 1.0,
-            });
+        let timer = Timer::new(device);
         let chunk_bytes = device.limits().max_buffer_size.min(MAX_CHUNK_BYTES);
         Renderer {
             chunk_triangles: (chunk_bytes / 12).max(1),
@@ -680,4 +658,33 @@ fn barycentric_pipeline(
         cache: None,
     });
     (pipeline, pulled)
+}
+
+impl Timer {
+    /// Timestamp queries around the render pass, where the device has them.
+    fn new(device: &wgpu::Device) -> Option<Timer> {
+        device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| Timer {
+                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("frame time"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                }),
+                resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                readback: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps readback"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                period_ns: 1.0,
+            })
+    }
 }

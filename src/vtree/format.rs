@@ -140,119 +140,10 @@ impl Cursor<'_> {
 
 /// Parses and validates `.vtree` bytes; `path` names the file in errors.
 pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
-    let fail = |offset: Option<u64>, kind, message: String| FormatError {
-        path: path.to_path_buf(),
-        offset,
-        kind,
-        message,
-    };
-    let len = bytes.len() as u64;
-    if bytes.len() < HEADER || bytes[..8] != MAGIC {
-        return Err(fail(
-            Some(0),
-            FormatErrorKind::NotAVtree,
-            "not a .vtree file (bad magic)".into(),
-        ));
-    }
-    let c = Cursor { bytes };
-    let version = c.u32(8);
-    if version != FORMAT_VERSION {
-        return Err(fail(
-            Some(8),
-            FormatErrorKind::WrongVersion { found: version },
-            format!("format version {version}; this build reads version {FORMAT_VERSION}"),
-        ));
-    }
-    let count = c.u32(12);
-    if count > MAX_SECTIONS {
-        return Err(fail(
-            Some(12),
-            FormatErrorKind::Invalid,
-            format!("{count} sections; at most {MAX_SECTIONS} are allowed"),
-        ));
-    }
-    let table_end = HEADER + TABLE_ENTRY * count as usize;
-    if bytes.len() < table_end + 4 {
-        return Err(fail(
-            Some(len),
-            FormatErrorKind::Truncated,
-            format!("the file ends inside its section table ({table_end} bytes needed)"),
-        ));
-    }
-    if crc(&bytes[..table_end]) != c.u32(table_end) {
-        return Err(fail(
-            Some(table_end as u64),
-            FormatErrorKind::Checksum,
-            "the header or section table is corrupt (checksum mismatch)".into(),
-        ));
-    }
-    let mut expected = (table_end + 4) as u64;
-    let mut found: [Option<&[u8]>; 5] = [None; 5];
-    for i in 0..count as usize {
-        let at = HEADER + i * TABLE_ENTRY;
-        let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
-        let (offset, length, sum) = (c.u64(at + 8), c.u64(at + 16), c.u32(at + 24));
-        let name = String::from_utf8_lossy(&tag).into_owned();
-        if offset != expected {
-            return Err(fail(
-                Some(at as u64),
-                FormatErrorKind::Invalid,
-                format!(
-                    "section {name} starts at {offset}, expected {expected}: sections must follow each other"
-                ),
-            ));
-        }
-        let end = offset.checked_add(length).filter(|&e| e <= len).ok_or_else(|| {
-            fail(Some(len), FormatErrorKind::Truncated, format!("section {name} ({length} bytes at {offset}) runs past the end of the {len}-byte file"))
-        })?;
-        let body = &bytes[offset as usize..end as usize];
-        if crc(body) != sum {
-            return Err(fail(
-                Some(offset),
-                FormatErrorKind::Checksum,
-                format!("section {name} is corrupt (checksum mismatch)"),
-            ));
-        }
-        if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
-            if found[k].is_some() {
-                return Err(fail(
-                    Some(at as u64),
-                    FormatErrorKind::Invalid,
-                    format!("section {name} appears twice"),
-                ));
-            }
-            found[k] = Some(body);
-        }
-        expected = end;
-    }
-    if expected != len {
-        return Err(fail(
-            Some(expected),
-            FormatErrorKind::Invalid,
-            format!("{} bytes after the last section", len - expected),
-        ));
-    }
-    let section = |k: usize| {
-        found[k].ok_or_else(|| {
-            fail(
-                None,
-                FormatErrorKind::Invalid,
-                format!(
-                    "section {} is missing",
-                    String::from_utf8_lossy(&SECTIONS[k])
-                ),
-            )
-        })
-    };
-    let (meta, node_bytes, tri_bytes, off_bytes, part_bytes) = (
-        section(0)?,
-        section(1)?,
-        section(2)?,
-        section(3)?,
-        section(4)?,
-    );
+    let fail = Fail { path };
+    let [meta, node_bytes, tri_bytes, off_bytes, part_bytes] = sections(bytes, &fail)?;
     if meta.len() != META_LEN {
-        return Err(fail(
+        return Err(fail.at(
             None,
             FormatErrorKind::Invalid,
             format!("META is {} bytes, expected {META_LEN}", meta.len()),
@@ -267,78 +158,24 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         m.u32(16),
         m.u32(20),
     );
-    let metric = Metric::from_code(metric).ok_or_else(|| {
-        fail(
-            None,
-            FormatErrorKind::Invalid,
-            format!("unknown metric code {metric}"),
-        )
-    })?;
+    let metric = Metric::from_code(metric)
+        .ok_or_else(|| fail.invalid(format!("unknown metric code {metric}")))?;
     let want = |what: &str, have: usize, count: u64, size: u64| {
         if have as u64 != count * size {
-            Err(fail(
-                None,
-                FormatErrorKind::Invalid,
-                format!(
-                    "section {what} is {have} bytes, but META's counts need {}",
-                    count * size
-                ),
-            ))
+            Err(fail.invalid(format!(
+                "section {what} is {have} bytes, but META's counts need {}",
+                count * size
+            )))
         } else {
             Ok(())
         }
     };
     if leaves == 0 || nodes < leaves {
-        return Err(fail(
-            None,
-            FormatErrorKind::Invalid,
-            format!("META says {nodes} nodes for {leaves} leaves"),
-        ));
+        return Err(fail.invalid(format!("META says {nodes} nodes for {leaves} leaves")));
     }
     want("NODE", node_bytes.len(), nodes as u64, NODE_LEN)?;
     want("TRIS", tri_bytes.len(), tris as u64, 12)?;
     want("VOFF", off_bytes.len(), (nodes - leaves) as u64 + 1, 4)?;
-
-    let mut part_list = Vec::new();
-    let mut at = 0usize;
-    for i in 0..parts {
-        let p = Cursor { bytes: part_bytes };
-        if at + 8 > part_bytes.len() {
-            return Err(fail(
-                None,
-                FormatErrorKind::Invalid,
-                format!("PART ends inside part {i}"),
-            ));
-        }
-        let (triangles, name_len) = (p.u32(at), p.u32(at + 4) as usize);
-        let name = part_bytes.get(at + 8..at + 8 + name_len).ok_or_else(|| {
-            fail(
-                None,
-                FormatErrorKind::Invalid,
-                format!("PART: name of part {i} runs past the section"),
-            )
-        })?;
-        let name = std::str::from_utf8(name).map_err(|_| {
-            fail(
-                None,
-                FormatErrorKind::Invalid,
-                format!("PART: name of part {i} is not UTF-8"),
-            )
-        })?;
-        part_list.push(PartInfo {
-            name: name.to_owned(),
-            triangles,
-        });
-        at += 8 + name_len;
-    }
-    if at != part_bytes.len() {
-        return Err(fail(
-            None,
-            FormatErrorKind::Invalid,
-            "PART has bytes after its last part".into(),
-        ));
-    }
-
     let tree = VertexTree {
         leaf_count: leaves,
         nodes: bytemuck::pod_collect_to_vec(node_bytes),
@@ -347,14 +184,157 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         metric,
         has_colors: flags & FLAG_COLORS != 0,
         has_normals: flags & FLAG_NORMALS != 0,
-        parts: part_list,
+        parts: part_list(part_bytes, parts, &fail)?,
     };
-    super::check(&tree).map_err(|e| {
-        fail(
-            None,
-            FormatErrorKind::Invalid,
-            format!("the tree is inconsistent: {e}"),
-        )
-    })?;
+    super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
+}
+
+/// Builds the errors of one file.
+struct Fail<'a> {
+    path: &'a Path,
+}
+
+impl Fail<'_> {
+    fn at(&self, offset: Option<u64>, kind: FormatErrorKind, message: String) -> FormatError {
+        FormatError {
+            path: self.path.to_path_buf(),
+            offset,
+            kind,
+            message,
+        }
+    }
+
+    fn invalid(&self, message: String) -> FormatError {
+        self.at(None, FormatErrorKind::Invalid, message)
+    }
+}
+
+/// The header, the section table and the sections, each checked (magic, version, checksums, one
+/// section after another to the end of the file); returns the five known sections' bodies in
+/// [`SECTIONS`] order.
+fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<[&'b [u8]; 5], FormatError> {
+    let len = bytes.len() as u64;
+    if bytes.len() < HEADER || bytes[..8] != MAGIC {
+        return Err(fail.at(
+            Some(0),
+            FormatErrorKind::NotAVtree,
+            "not a .vtree file (bad magic)".into(),
+        ));
+    }
+    let c = Cursor { bytes };
+    let version = c.u32(8);
+    if version != FORMAT_VERSION {
+        return Err(fail.at(
+            Some(8),
+            FormatErrorKind::WrongVersion { found: version },
+            format!("format version {version}; this build reads version {FORMAT_VERSION}"),
+        ));
+    }
+    let count = c.u32(12);
+    if count > MAX_SECTIONS {
+        return Err(fail.at(
+            Some(12),
+            FormatErrorKind::Invalid,
+            format!("{count} sections; at most {MAX_SECTIONS} are allowed"),
+        ));
+    }
+    let table_end = HEADER + TABLE_ENTRY * count as usize;
+    if bytes.len() < table_end + 4 {
+        return Err(fail.at(
+            Some(len),
+            FormatErrorKind::Truncated,
+            format!("the file ends inside its section table ({table_end} bytes needed)"),
+        ));
+    }
+    if crc(&bytes[..table_end]) != c.u32(table_end) {
+        return Err(fail.at(
+            Some(table_end as u64),
+            FormatErrorKind::Checksum,
+            "the header or section table is corrupt (checksum mismatch)".into(),
+        ));
+    }
+    let mut expected = (table_end + 4) as u64;
+    let mut found: [Option<&[u8]>; 5] = [None; 5];
+    for i in 0..count as usize {
+        let at = HEADER + i * TABLE_ENTRY;
+        let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
+        let (offset, length, sum) = (c.u64(at + 8), c.u64(at + 16), c.u32(at + 24));
+        let name = String::from_utf8_lossy(&tag).into_owned();
+        if offset != expected {
+            return Err(fail.at(
+                Some(at as u64),
+                FormatErrorKind::Invalid,
+                format!(
+                    "section {name} starts at {offset}, expected {expected}: sections must follow each other"
+                ),
+            ));
+        }
+        let end = offset.checked_add(length).filter(|&e| e <= len).ok_or_else(|| {
+            fail.at(Some(len), FormatErrorKind::Truncated, format!("section {name} ({length} bytes at {offset}) runs past the end of the {len}-byte file"))
+        })?;
+        let body = &bytes[offset as usize..end as usize];
+        if crc(body) != sum {
+            return Err(fail.at(
+                Some(offset),
+                FormatErrorKind::Checksum,
+                format!("section {name} is corrupt (checksum mismatch)"),
+            ));
+        }
+        if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
+            if found[k].is_some() {
+                return Err(fail.at(
+                    Some(at as u64),
+                    FormatErrorKind::Invalid,
+                    format!("section {name} appears twice"),
+                ));
+            }
+            found[k] = Some(body);
+        }
+        expected = end;
+    }
+    if expected != len {
+        return Err(fail.at(
+            Some(expected),
+            FormatErrorKind::Invalid,
+            format!("{} bytes after the last section", len - expected),
+        ));
+    }
+    let mut out: [&[u8]; 5] = [&[]; 5];
+    for (k, slot) in out.iter_mut().enumerate() {
+        *slot = found[k].ok_or_else(|| {
+            fail.invalid(format!(
+                "section {} is missing",
+                String::from_utf8_lossy(&SECTIONS[k])
+            ))
+        })?;
+    }
+    Ok(out)
+}
+
+/// The PART section: `count` parts, each a triangle count, a name length and a UTF-8 name.
+fn part_list(part_bytes: &[u8], count: u32, fail: &Fail) -> Result<Vec<PartInfo>, FormatError> {
+    let mut parts = Vec::new();
+    let mut at = 0usize;
+    let p = Cursor { bytes: part_bytes };
+    for i in 0..count {
+        if at + 8 > part_bytes.len() {
+            return Err(fail.invalid(format!("PART ends inside part {i}")));
+        }
+        let (triangles, name_len) = (p.u32(at), p.u32(at + 4) as usize);
+        let name = part_bytes
+            .get(at + 8..(at + 8).saturating_add(name_len))
+            .ok_or_else(|| fail.invalid(format!("PART: name of part {i} runs past the section")))?;
+        let name = std::str::from_utf8(name)
+            .map_err(|_| fail.invalid(format!("PART: name of part {i} is not UTF-8")))?;
+        parts.push(PartInfo {
+            name: name.to_owned(),
+            triangles,
+        });
+        at += 8 + name_len;
+    }
+    if at != part_bytes.len() {
+        return Err(fail.invalid("PART has bytes after its last part".into()));
+    }
+    Ok(parts)
 }

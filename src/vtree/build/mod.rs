@@ -469,37 +469,47 @@ fn build_unit(
     }
     progress(n - 1, n - 1);
 
-    let Builder {
-        mut stats,
-        nodes,
-        vanished,
-        vanish_offsets,
-        ..
-    } = builder;
-    let triangles = vanished
-        .par_iter()
-        .map(|&f| mesh.triangles[f as usize])
-        .collect();
-    drop(vanished);
-    let tree = VertexTree {
-        leaf_count: n as u32,
-        nodes,
-        triangles,
-        vanish_offsets,
-        metric: options.metric,
-        has_colors: mesh.colors.is_some(),
-        has_normals: mesh.normals.is_some(),
-        parts: mesh
-            .parts
-            .iter()
-            .map(|p| PartInfo {
-                name: p.name.clone(),
-                triangles: p.triangles.end - p.triangles.start,
-            })
-            .collect(),
-    };
-    stats.nodes = tree.nodes.len() as u32;
-    stats.depth = tree.depth();
+    let (tree, mut stats) = builder.into_tree(options);
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((tree, stats))
+}
+
+impl Builder<'_> {
+    /// The finished tree: the vanished triangles' corners read now, in node order (see
+    /// [`Builder::vanished`]), and the input's parts.
+    fn into_tree(self, options: &BuildOptions) -> (VertexTree, BuildStats) {
+        let Builder {
+            mesh,
+            mut stats,
+            nodes,
+            vanished,
+            vanish_offsets,
+            ..
+        } = self;
+        let triangles = vanished
+            .par_iter()
+            .map(|&f| mesh.triangles[f as usize])
+            .collect();
+        drop(vanished);
+        let tree = VertexTree {
+            leaf_count: mesh.positions.len() as u32,
+            nodes,
+            triangles,
+            vanish_offsets,
+            metric: options.metric,
+            has_colors: mesh.colors.is_some(),
+            has_normals: mesh.normals.is_some(),
+            parts: mesh
+                .parts
+                .iter()
+                .map(|p| PartInfo {
+                    name: p.name.clone(),
+                    triangles: p.triangles.end - p.triangles.start,
+                })
+                .collect(),
+        };
+        stats.nodes = tree.nodes.len() as u32;
+        stats.depth = tree.depth();
+        (tree, stats)
+    }
 }
