@@ -323,3 +323,31 @@ fn kill_9_during_a_build_keeps_the_old_tree() {
     ok(&vunify(&["info", o, "--check"]));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `vunify measure --certified --json`: both directions' bounds, in the documented fields.
+#[test]
+fn measure_certified_json() {
+    let a = tmp("certified-a.obj");
+    let b = tmp("certified-b.obj");
+    std::fs::write(&a, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(&b, "v 0 0 0.5\nv 1 0 0.5\nv 0 1 0.5\nf 1 2 3\n").unwrap();
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let j: serde_json::Value =
+        serde_json::from_str(&ok(&vunify(&["measure", a, b, "--certified", "--json"]))).unwrap();
+    let exact = 0.5 / 2f64.sqrt();
+    for side in ["forward", "backward"] {
+        let (lo, hi) = (
+            j[side]["lower"].as_f64().unwrap(),
+            j[side]["upper"].as_f64().unwrap(),
+        );
+        assert!(
+            lo <= exact + 1e-12 && exact <= hi + 1e-12,
+            "{side}: {lo} {hi}"
+        );
+        assert!(hi - lo <= 0.01 * lo, "{side}: {lo} {hi}");
+    }
+    assert!(j["seconds"].as_f64().is_some());
+    let out = vunify(&["measure", a, b, "--certified", "--tolerance", "2"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--tolerance must be between 0 and 1"));
+}

@@ -4,8 +4,10 @@
 //! bounding-box diagonal.
 
 mod bvh;
+mod certified;
 
-pub use bvh::{Bvh, closest_point_on_triangle};
+pub use bvh::{Bvh, closest_point_on_triangle, closest_point_on_triangle64};
+pub use certified::{Bounds, Certified, CertifyError, CertifyOptions, certified_hausdorff};
 
 use crate::mesh::Mesh;
 use glam::Vec3;
