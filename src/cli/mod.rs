@@ -9,6 +9,7 @@ mod info;
 mod measure;
 mod path;
 mod render;
+mod simplify;
 mod view;
 
 use anyhow::Result;
@@ -50,8 +51,12 @@ enum Command {
     /// Fly through a model in the interactive viewer (winit + egui); with no display, render the
     /// default camera path headless instead.
     View(view::ViewArgs),
-    /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling).
+    /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling), or with
+    /// --certified, proven lower and upper bounds on it.
     Measure(measure::MeasureArgs),
+    /// Simplify a mesh to the fewest triangles whose distance to it is certified within ε, both
+    /// ways.
+    Simplify(simplify::SimplifyArgs),
 }
 
 /// Parses the command line and runs the command.
@@ -65,6 +70,7 @@ pub fn run() -> Result<()> {
         Some(Command::Render(args)) => render::run(args),
         Some(Command::View(args)) => view::run(args),
         Some(Command::Measure(args)) => measure::run(args),
+        Some(Command::Simplify(args)) => simplify::run(args),
     }
 }
 

@@ -304,6 +304,114 @@ fn piece(
     }
 }
 
+/// What a certified check measures distances to: the nearest triangle to a point, and the triangles
+/// themselves, in `f64`.
+pub trait Target {
+    /// The nearest triangle to `p` and its distance; `None` when there are none.
+    fn nearest(&self, p: DVec3) -> Option<(f64, u32)>;
+    fn triangle(&self, t: u32) -> [DVec3; 3];
+}
+
+impl Target for Bvh {
+    fn nearest(&self, p: DVec3) -> Option<(f64, u32)> {
+        self.nearest64(p).map(|(d, t)| (d, t as u32))
+    }
+    fn triangle(&self, t: u32) -> [DVec3; 3] {
+        self.triangle64(t as usize)
+    }
+}
+
+/// A handful of triangles, searched one by one (a local ring of faces).
+pub struct Triangles<'a>(pub &'a [[DVec3; 3]]);
+
+impl Target for Triangles<'_> {
+    fn nearest(&self, p: DVec3) -> Option<(f64, u32)> {
+        self.0
+            .iter()
+            .enumerate()
+            .map(|(i, &[a, b, c])| {
+                let q = super::bvh::closest_point_on_triangle64(p, a, b, c);
+                (q.distance(p), i as u32)
+            })
+            .min_by(|x, y| x.0.total_cmp(&y.0))
+    }
+    fn triangle(&self, t: u32) -> [DVec3; 3] {
+        self.0[t as usize]
+    }
+}
+
+/// Whether every point of `pieces` is proven within `eps` of `to`: the same bounds as
+/// [`certified_hausdorff`], splitting pieces until each one's upper bound is at most `eps` (true) or a
+/// point farther than `eps` is found (false). Conservative: when `budget` splits do not settle it,
+/// the answer is false.
+pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) -> bool {
+    let accept = |upper: f64| upper * (1.0 + ROUNDING) <= eps;
+    let mut stack: Vec<([DVec3; 3], [u32; 3])> = Vec::new();
+    for &corners in pieces {
+        let mut near = [0u32; 3];
+        for (slot, &c) in near.iter_mut().zip(&corners) {
+            let Some((d, t)) = to.nearest(c) else {
+                return false;
+            };
+            if d > eps {
+                return false;
+            }
+            *slot = t;
+        }
+        stack.push((corners, near));
+    }
+    let mut splits = 0;
+    while let Some((corners, near)) = stack.pop() {
+        let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
+        let Some((dc, tc)) = to.nearest(centroid) else {
+            return false;
+        };
+        if dc > eps {
+            return false;
+        }
+        let upper = [tc]
+            .into_iter()
+            .chain(near)
+            .map(|t| {
+                let [x, y, z] = to.triangle(t);
+                corners
+                    .iter()
+                    .map(|&c| super::bvh::closest_point_on_triangle64(c, x, y, z).distance(c))
+                    .fold(0.0, f64::max)
+            })
+            .fold(f64::INFINITY, f64::min);
+        if accept(upper) {
+            continue;
+        }
+        splits += 1;
+        if splits > budget {
+            return false;
+        }
+        let [a, b, c] = corners;
+        let [na, nb, nc] = near;
+        let mids = [(a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5];
+        let mut mid_near = [0u32; 3];
+        for (slot, &m) in mid_near.iter_mut().zip(&mids) {
+            let Some((d, t)) = to.nearest(m) else {
+                return false;
+            };
+            if d > eps {
+                return false;
+            }
+            *slot = t;
+        }
+        let [ab, bc, ca] = mids;
+        let [nab, nbc, nca] = mid_near;
+        stack.extend([
+            ([a, ab, ca], [na, nab, nca]),
+            ([ab, b, bc], [nab, nb, nbc]),
+            ([ca, bc, c], [nca, nbc, nc]),
+            ([ab, bc, ca], [nab, nbc, nca]),
+        ]);
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,7 +7,9 @@ mod bvh;
 mod certified;
 
 pub use bvh::{Bvh, closest_point_on_triangle, closest_point_on_triangle64};
-pub use certified::{Bounds, Certified, CertifyError, CertifyOptions, certified_hausdorff};
+pub use certified::{
+    Bounds, Certified, CertifyError, CertifyOptions, Target, Triangles, certified_hausdorff, within,
+};
 
 use crate::mesh::Mesh;
 use glam::Vec3;

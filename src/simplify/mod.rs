@@ -1,6 +1,7 @@
 //! Simplification machinery shared by the vertex-tree builder and the static simplifiers: the working
 //! mesh and its merge operation, quadrics, candidate pairs, feature classification and merge pricing.
 
+pub mod bounded;
 pub mod bounds;
 pub mod collapse;
 pub mod features;

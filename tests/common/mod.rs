@@ -122,3 +122,29 @@ pub const MODELS: [&str; 8] = [
     "horse.obj",
     "stanford-dragon.obj.xz",
 ];
+
+/// Each triangle split `levels` times into four at its edge midpoints (shared midpoints welded).
+pub fn subdivided(mesh: &Mesh, levels: u32) -> Mesh {
+    let mut m = mesh.clone();
+    for _ in 0..levels {
+        let mut p = m.positions.clone();
+        let mut mid = std::collections::HashMap::new();
+        let mut t = Vec::new();
+        for tri in &m.triangles {
+            let mut m3 = [0u32; 3];
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let key = (a.min(b), a.max(b));
+                m3[k] = *mid.entry(key).or_insert_with(|| {
+                    p.push((p[a as usize] + p[b as usize]) * 0.5);
+                    p.len() as u32 - 1
+                });
+            }
+            let [a, b, c] = *tri;
+            let [ab, bc, ca] = m3;
+            t.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        m = Mesh::from_triangles(p, t);
+    }
+    m
+}
