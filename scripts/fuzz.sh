@@ -24,7 +24,10 @@ for t in "${targets[@]}"; do
   log=$(mktemp)
   # -rss_limit_mb: an input that makes a reader allocate beyond this is a finding (no allocation
   # from an unchecked count); -timeout: one that takes this long is a hang.
-  if ! cargo fuzz run --sanitizer none "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
+  # `timeout`: libFuzzer can deadlock reporting a hang found inside an allocation; the run still
+  # ends, as a failure.
+  if ! timeout --kill-after=10 $((seconds + 120)) \
+      cargo fuzz run --sanitizer none "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
       -max_total_time="$seconds" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=10 \
       -max_len=65536 -print_final_stats=1 >"$log" 2>&1; then
     tail -40 "$log"
