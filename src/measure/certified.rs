@@ -346,22 +346,37 @@ impl Target for Triangles<'_> {
 /// the answer is false.
 pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) -> bool {
     let accept = |upper: f64| upper * (1.0 + ROUNDING) <= eps;
-    let mut stack: Vec<([DVec3; 3], [u32; 3])> = Vec::new();
+    // Each entry: a piece's corners, their distances and their nearest triangles.
+    let mut stack: Vec<([DVec3; 3], [f64; 3], [u32; 3])> = Vec::new();
     for &corners in pieces {
         let mut near = [0u32; 3];
-        for (slot, &c) in near.iter_mut().zip(&corners) {
-            let Some((d, t)) = to.nearest(c) else {
+        let mut dist = [0f64; 3];
+        for k in 0..3 {
+            let Some((d, t)) = to.nearest(corners[k]) else {
                 return false;
             };
             if d > eps {
                 return false;
             }
-            *slot = t;
+            (dist[k], near[k]) = (d, t);
         }
-        stack.push((corners, near));
+        stack.push((corners, dist, near));
     }
     let mut splits = 0;
-    while let Some((corners, near)) = stack.pop() {
+    while let Some((corners, dist, near)) = stack.pop() {
+        // The distance is 1-Lipschitz: every point of the piece is within its distance from a
+        // corner of that corner's distance. Settles most small pieces without another query.
+        let lipschitz = (0..3)
+            .map(|i| {
+                dist[i]
+                    + (0..3)
+                        .map(|j| corners[i].distance(corners[j]))
+                        .fold(0.0, f64::max)
+            })
+            .fold(f64::INFINITY, f64::min);
+        if accept(lipschitz) {
+            continue;
+        }
         let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
         let Some((dc, tc)) = to.nearest(centroid) else {
             return false;
@@ -388,25 +403,26 @@ pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) 
             return false;
         }
         let [a, b, c] = corners;
-        let [na, nb, nc] = near;
         let mids = [(a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5];
         let mut mid_near = [0u32; 3];
-        for (slot, &m) in mid_near.iter_mut().zip(&mids) {
-            let Some((d, t)) = to.nearest(m) else {
+        let mut mid_dist = [0f64; 3];
+        for k in 0..3 {
+            let Some((d, t)) = to.nearest(mids[k]) else {
                 return false;
             };
             if d > eps {
                 return false;
             }
-            *slot = t;
+            (mid_dist[k], mid_near[k]) = (d, t);
         }
         let [ab, bc, ca] = mids;
-        let [nab, nbc, nca] = mid_near;
+        let ([na, nb, nc], [da, db, dc3]) = (near, dist);
+        let ([nab, nbc, nca], [dab, dbc, dca]) = (mid_near, mid_dist);
         stack.extend([
-            ([a, ab, ca], [na, nab, nca]),
-            ([ab, b, bc], [nab, nb, nbc]),
-            ([ca, bc, c], [nca, nbc, nc]),
-            ([ab, bc, ca], [nab, nbc, nca]),
+            ([a, ab, ca], [da, dab, dca], [na, nab, nca]),
+            ([ab, b, bc], [dab, db, dbc], [nab, nb, nbc]),
+            ([ca, bc, c], [dca, dbc, dc3], [nca, nbc, nc]),
+            ([ab, bc, ca], [dab, dbc, dca], [nab, nbc, nca]),
         ]);
     }
     true

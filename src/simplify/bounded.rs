@@ -369,22 +369,27 @@ impl Work {
     ) -> Option<Vec<Vec<u32>>> {
         let mut out = Vec::with_capacity(affected.len());
         for &o in affected {
-            let mut faces: Vec<u32> = self.certified_by[o as usize]
-                .iter()
-                .copied()
-                .filter(|f| self.alive[*f as usize] && !touched.contains(f))
-                .collect();
-            let mut geometry: Vec<[DVec3; 3]> = faces
-                .iter()
-                .map(|&f| self.faces[f as usize].map(|v| self.positions[v as usize]))
-                .collect();
-            // The ring faces near this triangle (those farther than eps from its box cannot hold
-            // any of its nearest points within eps).
+            // The faces near this triangle: one farther than eps from its box cannot hold any of
+            // its nearest points within eps, so it is left out of the set.
             let (lo, hi) = bounds(&originals[o as usize]);
-            for (&f, r) in kept.iter().zip(ring) {
+            let near = |r: &[DVec3; 3]| {
                 let (rlo, rhi) = bounds(r);
-                let gap = (rlo - hi).max(lo - rhi).max(DVec3::ZERO).length();
-                if gap <= eps {
+                (rlo - hi).max(lo - rhi).max(DVec3::ZERO).length() <= eps
+            };
+            let mut faces = Vec::new();
+            let mut geometry = Vec::new();
+            for &f in &self.certified_by[o as usize] {
+                if !self.alive[f as usize] || touched.contains(&f) {
+                    continue;
+                }
+                let g = self.faces[f as usize].map(|v| self.positions[v as usize]);
+                if near(&g) {
+                    faces.push(f);
+                    geometry.push(g);
+                }
+            }
+            for (&f, r) in kept.iter().zip(ring) {
+                if near(r) {
                     faces.push(f);
                     geometry.push(*r);
                 }
