@@ -7,10 +7,12 @@
 //!
 //! Models come from $VUNIFY_MODELS (required).
 
+mod common;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use std::time::Instant;
-use vunify::mesh::{self, CleanOptions, Mesh, Part};
+use vunify::mesh::{self, CleanOptions};
 use vunify::simplify::Metric;
 use vunify::vtree::{self, BuildOptions};
 
@@ -67,33 +69,6 @@ fn measured<T>(f: impl FnOnce() -> T) -> (T, f64, usize) {
 fn median(xs: &mut [f64]) -> f64 {
     xs.sort_by(f64::total_cmp);
     xs[xs.len() / 2]
-}
-
-fn meshopt_simplify(mesh: &Mesh, target_triangles: usize) -> Mesh {
-    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
-        .expect("positions");
-    let out = meshopt::simplify(
-        &indices,
-        &adapter,
-        target_triangles * 3,
-        f32::MAX,
-        meshopt::SimplifyOptions::empty(),
-        None,
-    );
-    let triangles: Vec<[u32; 3]> = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let parts = vec![Part {
-        name: "meshopt".into(),
-        triangles: 0..triangles.len() as u32,
-    }];
-    Mesh {
-        positions: mesh.positions.clone(),
-        colors: None,
-        normals: None,
-        triangles,
-        parts,
-        unreferenced_vertices: 0,
-    }
 }
 
 fn main() {
@@ -155,7 +130,7 @@ fn main() {
             });
             builds.push(s_);
             (tree, build_peak) = (Some(t_), p_);
-            let (_, s_, p_) = measured(|| meshopt_simplify(&mesh, t / 100));
+            let (_, s_, p_) = measured(|| common::meshopt_simplify(&mesh, t / 100));
             meshopts.push(s_);
             mo_peak = p_;
         }
@@ -208,7 +183,7 @@ fn quality_table(loaded: &[Loaded], samples: usize) {
     for (m, mesh, tree, greedy_tree) in loaded {
         for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
             let target = (mesh.triangle_count() as f64 * ratio) as usize;
-            let mo = meshopt_simplify(mesh, target);
+            let mo = common::meshopt_simplify(mesh, target);
             let cut = vtree::cut_at_triangles(tree, mo.triangle_count() as u32);
             let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
             let hm = vunify::measure::hausdorff(mesh, &mo, samples).symmetric;

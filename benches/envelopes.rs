@@ -8,32 +8,8 @@ mod common;
 
 use std::time::Instant;
 use vunify::measure::{CertifyOptions, certified_hausdorff};
-use vunify::mesh::{CleanOptions, Mesh, Part, load};
+use vunify::mesh::{CleanOptions, Mesh, load};
 use vunify::simplify::bounded::{BoundedOptions, simplify_bounded};
-
-/// meshoptimizer's edge collapse to `target` triangles, no error limit.
-fn meshopt_simplify(mesh: &Mesh, target: usize) -> Mesh {
-    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
-        .expect("positions");
-    let out = meshopt::simplify(
-        &indices,
-        &adapter,
-        target * 3,
-        f32::MAX,
-        meshopt::SimplifyOptions::empty(),
-        None,
-    );
-    let triangles: Vec<[u32; 3]> = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    Mesh {
-        parts: vec![Part {
-            name: "meshopt".into(),
-            triangles: 0..triangles.len() as u32,
-        }],
-        triangles,
-        ..mesh.clone()
-    }
-}
 
 /// The larger certified upper bound of the two directions, as a fraction of the diagonal.
 fn certified(mesh: &Mesh, other: &Mesh) -> f64 {
@@ -77,7 +53,7 @@ fn main() {
         let mut best = (mesh.triangle_count(), 0.0);
         while lo < hi {
             let mid = (lo + hi) / 2;
-            let m = meshopt_simplify(&mesh, mid);
+            let m = common::meshopt_simplify(&mesh, mid);
             let d = certified(&mesh, &m);
             if d <= epsilon {
                 best = (m.triangle_count(), d);

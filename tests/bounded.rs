@@ -95,32 +95,9 @@ fn a_sheet_bent_at_ninety_degrees_keeps_its_crease() {
 /// stays a closed box (12 triangles at most).
 #[test]
 fn a_slab_thinner_than_epsilon_does_not_erode_through() {
-    let (w, t) = (10.0f32, 0.01f32);
-    let p: Vec<Vec3> = (0..8)
-        .map(|i| {
-            Vec3::new(
-                (i & 1) as f32 * w,
-                (i >> 1 & 1) as f32 * w,
-                (i >> 2 & 1) as f32 * t,
-            )
-        })
-        .collect();
-    let box_faces = vec![
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
+    let cuboid = vunify::fixtures::cuboid(Vec3::new(10.0, 10.0, 0.01));
     // Subdivided so there is something to simplify: each face of the box split into a fan.
-    let slab = common::subdivided(&Mesh::from_triangles(p, box_faces), 3);
+    let slab = common::subdivided(&cuboid, 3);
     let out = certified_within(&slab, 0.01, "slab");
     assert!(
         out.triangle_count() >= 4,

@@ -169,24 +169,7 @@ fn crlf_files_read_like_lf_files() {
 
 /// A unit cube's 12 triangles scaled by `s`.
 fn cube(s: f32) -> Mesh {
-    let p: Vec<Vec3> = (0..8)
-        .map(|i| Vec3::new((i & 1) as f32, (i >> 1 & 1) as f32, (i >> 2 & 1) as f32) * s)
-        .collect();
-    let t = vec![
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
-    Mesh::from_triangles(p, t)
+    vunify::fixtures::cuboid(Vec3::splat(s))
 }
 
 /// Found by a probe: the cow scaled by 10⁷ built a tree its own reader rejected (infinite quadric

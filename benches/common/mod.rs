@@ -30,3 +30,31 @@ pub fn models_dir() -> PathBuf {
             .expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
     )
 }
+
+/// meshoptimizer's edge collapse (`meshopt::simplify`) to `target` triangles, positions only, no
+/// error limit; the result keeps the input's vertex array.
+pub fn meshopt_simplify(mesh: &vunify::mesh::Mesh, target: usize) -> vunify::mesh::Mesh {
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
+        .expect("positions");
+    let out = meshopt::simplify(
+        &indices,
+        &adapter,
+        target * 3,
+        f32::MAX,
+        meshopt::SimplifyOptions::empty(),
+        None,
+    );
+    let triangles: Vec<[u32; 3]> = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    vunify::mesh::Mesh {
+        parts: vec![vunify::mesh::Part {
+            name: "meshopt".into(),
+            triangles: 0..triangles.len() as u32,
+        }],
+        triangles,
+        colors: None,
+        normals: None,
+        unreferenced_vertices: 0,
+        ..mesh.clone()
+    }
+}
