@@ -7,7 +7,8 @@ mod common;
 use glam::Vec3;
 use vunify::measure::{CertifyOptions, certified_hausdorff};
 use vunify::mesh::{CleanOptions, Mesh, clean, load};
-use vunify::simplify::bounded::{BoundedError, BoundedOptions, simplify_bounded};
+use vunify::simplify::DistanceError;
+use vunify::simplify::bounded::{BoundedOptions, simplify_bounded};
 
 /// The referee: tight enough to tell 0.999 ε from ε.
 fn referee() -> CertifyOptions {
@@ -140,7 +141,7 @@ fn bad_input_is_a_clear_error() {
             target_triangles: 0,
         };
         let e = simplify_bounded(&tri, &options, &mut |_| {}).unwrap_err();
-        assert!(matches!(e, BoundedError::Epsilon(_)), "{e}");
+        assert!(matches!(e, DistanceError::Epsilon(_)), "{e}");
     }
     let options = BoundedOptions {
         epsilon: 0.01,
@@ -148,7 +149,7 @@ fn bad_input_is_a_clear_error() {
     };
     assert_eq!(
         simplify_bounded(&Mesh::default(), &options, &mut |_| {}).unwrap_err(),
-        BoundedError::Empty
+        DistanceError::Empty
     );
 }
 

@@ -33,7 +33,7 @@ pub struct ExtractArgs {
     file: PathBuf,
     #[command(flatten)]
     target: Target,
-    /// Output OBJ file (written atomically).
+    /// Output mesh, written atomically: .obj, .ply or .off, optionally .xz.
     #[arg(short, long)]
     output: PathBuf,
 }
@@ -62,7 +62,7 @@ pub fn run(args: ExtractArgs) -> Result<()> {
     } else {
         unreachable!("clap requires exactly one target")
     };
-    vunify::export::write_obj(&cut.mesh, &args.output)
+    vunify::export::write_mesh(&cut.mesh, &args.output)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     println!(
         "wrote {}: {} vertices, {} triangles (of {total}){}",

@@ -1,31 +1,40 @@
-//! `vunify simplify`: a static simplification with a certified distance.
+//! `vunify simplify`: a static simplification within a distance — certified both ways (`bounded`) or
+//! inside one of the envelopes of the seed paper (`offset-patch`, `single-envelope`, `cohen`).
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use vunify::mesh::{self, CleanOptions};
 use vunify::simplify::bounded::{BoundedOptions, simplify_bounded};
+use vunify::simplify::envelope::{self, EnvelopeOptions, simplify_envelope};
 
-#[derive(Clone, Copy, clap::ValueEnum)]
+#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
 enum Method {
     /// Edge collapses in quadric order, each accepted only when the result is certified within ε
-    /// of the input in both directions (docs/ENVELOPES.md).
+    /// of the input in both directions (docs/ENVELOPES.md). The one to use.
     Bounded,
+    /// Zou, Shen and Peng (2005): triangle collapses to the centroid, each kept only between two
+    /// local offset patches of its ring, offsets found by bisection. Bounds output → input, per step.
+    OffsetPatch,
+    /// The same authors' earlier method: triangle collapses inside one whole inner envelope.
+    SingleEnvelope,
+    /// Cohen et al., Simplification envelopes (1996): triangle collapses between whole inner and
+    /// outer envelopes built first.
+    Cohen,
 }
 
 #[derive(Args)]
 pub struct SimplifyArgs {
     /// Input mesh (.obj, .ply, .off, optionally .xz).
     input: PathBuf,
-    /// Output mesh, written atomically (.obj).
+    /// Output mesh, written atomically: .obj, .ply or .off, optionally .xz.
     #[arg(short, long)]
     output: PathBuf,
-    /// How to simplify. (The offset-patch, single-envelope and Cohen envelope methods are not built
-    /// yet.)
+    /// How to simplify.
     #[arg(long, value_enum, default_value_t = Method::Bounded)]
     method: Method,
-    /// ε: the largest distance allowed between input and output, both ways, as a fraction of the
-    /// input's bounding-box diagonal.
+    /// ε, as a fraction of the input's bounding-box diagonal: for `bounded`, the largest distance
+    /// allowed between input and output, both ways; for the envelope methods, the largest offset ε0.
     #[arg(long, default_value_t = 0.01)]
     epsilon: f64,
     /// Stop at this many triangles (default: as few as ε allows).
@@ -36,6 +45,14 @@ pub struct SimplifyArgs {
     json: bool,
 }
 
+/// What any method reports.
+struct Summary {
+    triangles: usize,
+    seconds: f64,
+    json: serde_json::Value,
+    lines: Vec<String>,
+}
+
 pub fn run(args: SimplifyArgs) -> Result<()> {
     if !(args.epsilon > 0.0 && args.epsilon < 1.0) {
         bail!(
@@ -43,46 +60,123 @@ pub fn run(args: SimplifyArgs) -> Result<()> {
             args.epsilon
         );
     }
-    let Method::Bounded = args.method;
+    if vunify::mesh::Format::from_path(&args.output).is_none() {
+        bail!(
+            "{}: the output name must end in .obj, .ply or .off (optionally .xz)",
+            args.output.display()
+        );
+    }
     let (mesh, _) = mesh::load(&args.input, &CleanOptions::default())?;
-    let options = BoundedOptions {
-        epsilon: args.epsilon,
-        target_triangles: args.target_triangles.unwrap_or(0),
-    };
+    let total = mesh.triangle_count();
     let bar = super::progress_bar(
-        mesh.triangle_count() as u64,
+        total as u64,
         "simplifying [{bar:40}] {msg} triangles ({elapsed})",
     );
-    let total = mesh.triangle_count();
-    let (out, stats) = simplify_bounded(&mesh, &options, &mut |now| {
+    let mut progress = |now: usize| {
         bar.set_position((total - now) as u64);
         bar.set_message(now.to_string());
-    })
-    .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
+    };
+    let target_triangles = args.target_triangles.unwrap_or(0);
+    let (out, summary) = match args.method {
+        Method::Bounded => {
+            let options = BoundedOptions {
+                epsilon: args.epsilon,
+                target_triangles,
+            };
+            let (out, s) = simplify_bounded(&mesh, &options, &mut progress)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
+            let summary = Summary {
+                triangles: s.triangles,
+                seconds: s.seconds,
+                json: serde_json::json!({
+                    "collapses_tried": s.collapses_tried,
+                    "collapses_accepted": s.collapses_accepted, "certified_checks": s.checks,
+                }),
+                lines: vec![
+                    "bound      both ways, certified".into(),
+                    format!(
+                        "collapses  {} tried, {} accepted; {} certified checks",
+                        s.collapses_tried, s.collapses_accepted, s.checks
+                    ),
+                ],
+            };
+            (out, summary)
+        }
+        method => {
+            let method = match method {
+                Method::OffsetPatch => envelope::Method::OffsetPatch,
+                Method::SingleEnvelope => envelope::Method::SingleEnvelope,
+                _ => envelope::Method::Cohen,
+            };
+            let options = EnvelopeOptions {
+                method,
+                epsilon: args.epsilon,
+                target_triangles,
+            };
+            let (out, s) = simplify_envelope(&mesh, &options, &mut progress)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
+            (out, envelope_summary(&s))
+        }
+    };
     bar.finish_and_clear();
-    vunify::export::write_obj(&out, &args.output)
+    vunify::export::write_mesh(&out, &args.output)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
+    let name = args
+        .method
+        .to_possible_value()
+        .map(|v| v.get_name().to_owned());
     if args.json {
-        let j = serde_json::json!({
-            "input": args.input, "output": args.output, "method": "bounded",
-            "epsilon": args.epsilon, "input_triangles": total, "triangles": stats.triangles,
-            "seconds": stats.seconds, "collapses_tried": stats.collapses_tried,
-            "collapses_accepted": stats.collapses_accepted, "certified_checks": stats.checks,
+        let mut j = serde_json::json!({
+            "input": args.input, "output": args.output, "method": name,
+            "epsilon": args.epsilon, "input_triangles": total, "triangles": summary.triangles,
+            "seconds": summary.seconds,
         });
+        if let (Some(j), Some(extra)) = (j.as_object_mut(), summary.json.as_object()) {
+            j.extend(extra.clone());
+        }
         println!("{}", serde_json::to_string_pretty(&j)?);
         return Ok(());
     }
     println!(
-        "{} → {} triangles within ε = {} % of the diagonal, both ways (certified), in {:.2} s",
+        "{} → {} triangles, {}, ε = {} % of the diagonal, in {:.2} s",
         total,
-        stats.triangles,
+        summary.triangles,
+        name.unwrap_or_default(),
         100.0 * args.epsilon,
-        stats.seconds
+        summary.seconds
     );
-    println!(
-        "collapses  {} tried, {} accepted; {} certified checks",
-        stats.collapses_tried, stats.collapses_accepted, stats.checks
-    );
+    for line in summary.lines {
+        println!("{line}");
+    }
     println!("wrote      {}", args.output.display());
     Ok(())
+}
+
+fn envelope_summary(s: &envelope::EnvelopeStats) -> Summary {
+    let mut lines = vec![
+        "bound      output → input only, inside the envelope (not certified: measure --certified)"
+            .into(),
+        format!(
+            "collapses  {} tried, {} accepted; refused before the envelope: {} frozen (boundary or \
+             non-manifold), {} topology, {} folds",
+            s.collapses_tried,
+            s.collapses_accepted,
+            s.refused_frozen,
+            s.refused_topology,
+            s.refused_fold
+        ),
+        format!("tests      {} triangle–triangle", s.intersection_tests),
+    ];
+    if s.method != envelope::Method::OffsetPatch {
+        lines.push(format!(
+            "envelope   built in {:.2} s; {} vertices kept at offset 0",
+            s.envelope_seconds, s.pinned_vertices
+        ));
+    }
+    Summary {
+        triangles: s.triangles,
+        seconds: s.seconds,
+        json: serde_json::to_value(s).unwrap_or_default(),
+        lines,
+    }
 }

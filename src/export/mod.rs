@@ -1,4 +1,5 @@
-//! Writing results: atomic file replacement and Wavefront OBJ export.
+//! Writing results: atomic file replacement, and meshes as Wavefront OBJ, binary PLY or OFF (each
+//! optionally xz-compressed), the formats vunify reads.
 
 use crate::mesh::Mesh;
 use std::fmt::Write as _;
@@ -97,4 +98,89 @@ pub fn obj_string(mesh: &Mesh) -> String {
 
 pub fn write_obj(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
     write_atomic(path, obj_string(mesh).as_bytes())
+}
+
+/// Binary little-endian PLY: `float x y z`, with `uchar red green blue` (the colours times 255, as
+/// most PLY tools expect) when the mesh has colours; `int` vertex indices.
+pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
+    let mut header = String::new();
+    let _ = writeln!(header, "ply\nformat binary_little_endian 1.0");
+    let _ = writeln!(
+        header,
+        "comment written by vunify {}",
+        env!("CARGO_PKG_VERSION")
+    );
+    let _ = writeln!(header, "element vertex {}", mesh.positions.len());
+    header.push_str("property float x\nproperty float y\nproperty float z\n");
+    if mesh.colors.is_some() {
+        header.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+    }
+    let _ = writeln!(header, "element face {}", mesh.triangles.len());
+    header.push_str("property list uchar int vertex_indices\nend_header\n");
+    let mut out = header.into_bytes();
+    out.reserve(mesh.positions.len() * 15 + mesh.triangles.len() * 13);
+    for (i, p) in mesh.positions.iter().enumerate() {
+        for x in p.to_array() {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        if let Some(colors) = &mesh.colors {
+            out.extend(
+                colors[i]
+                    .to_array()
+                    .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8),
+            );
+        }
+    }
+    for t in &mesh.triangles {
+        out.push(3);
+        for v in t {
+            out.extend_from_slice(&(*v as i32).to_le_bytes());
+        }
+    }
+    out
+}
+
+/// OFF text (`COFF` with 8-bit colours when the mesh has them).
+pub fn off_string(mesh: &Mesh) -> String {
+    let mut s = String::with_capacity(mesh.positions.len() * 40 + mesh.triangles.len() * 24);
+    let _ = writeln!(s, "{}", if mesh.colors.is_some() { "COFF" } else { "OFF" });
+    let _ = writeln!(s, "# written by vunify {}", env!("CARGO_PKG_VERSION"));
+    let _ = writeln!(s, "{} {} 0", mesh.positions.len(), mesh.triangles.len());
+    for (i, p) in mesh.positions.iter().enumerate() {
+        let _ = write!(s, "{} {} {}", p.x, p.y, p.z);
+        if let Some(colors) = &mesh.colors {
+            let [r, g, b] = colors[i]
+                .to_array()
+                .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+            let _ = write!(s, " {r} {g} {b} 255");
+        }
+        s.push('\n');
+    }
+    for [a, b, c] in &mesh.triangles {
+        let _ = writeln!(s, "3 {a} {b} {c}");
+    }
+    s
+}
+
+/// Writes `mesh` atomically in the format its name asks for (`.obj`, `.ply`, `.off`, each
+/// optionally followed by `.xz`).
+pub fn write_mesh(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
+    use crate::mesh::Format;
+    let format = Format::from_path(path).ok_or_else(|| {
+        std::io::Error::other("the output name must end in .obj, .ply or .off (optionally .xz)")
+    })?;
+    let bytes = match format {
+        Format::Obj => obj_string(mesh).into_bytes(),
+        Format::Ply => ply_bytes(mesh),
+        Format::Off => off_string(mesh).into_bytes(),
+    };
+    let compressed = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xz"));
+    if compressed {
+        let mut encoder = xz2::write::XzEncoder::new(Vec::new(), 6);
+        encoder.write_all(&bytes)?;
+        return write_atomic(path, &encoder.finish()?);
+    }
+    write_atomic(path, &bytes)
 }

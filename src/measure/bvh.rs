@@ -19,6 +19,8 @@ struct BvhNode {
 pub struct Bvh {
     nodes: Vec<BvhNode>,
     tris: Vec<[Vec3; 3]>,
+    /// The input index of each triangle in the hierarchy's order.
+    order: Vec<u32>,
 }
 
 pub use crate::simplify::geometry::closest_point_on_triangle;
@@ -101,7 +103,7 @@ impl Bvh {
             stack.push((left + 1, mid, end));
         }
         let tris = order.iter().map(|&t| tris[t as usize]).collect();
-        Bvh { nodes, tris }
+        Bvh { nodes, tris, order }
     }
 
     /// Distance from `p` to the nearest triangle (infinite for an empty BVH).
@@ -151,6 +153,45 @@ impl Bvh {
     /// Triangle `i` in the hierarchy's own order (as [`Bvh::nearest64`] names them).
     pub fn triangle64(&self, i: usize) -> [DVec3; 3] {
         self.tris[i].map(|v| v.as_dvec3())
+    }
+
+    /// The input index (in the `triangles` given to [`Bvh::new`]) of triangle `i` in the hierarchy's
+    /// order.
+    pub fn input_index(&self, i: usize) -> usize {
+        self.order[i] as usize
+    }
+
+    /// Calls `visit(i)` for each triangle `i` (in the hierarchy's order) whose box overlaps the
+    /// closed box `lo..hi`, until a call returns `true`; returns whether one did. Boxes are compared
+    /// in `f64`, where the hierarchy's `f32` boxes are exact, so no overlapping triangle is missed.
+    pub fn any_overlapping(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        mut visit: impl FnMut(usize) -> bool,
+    ) -> bool {
+        if self.tris.is_empty() {
+            return false;
+        }
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            if node.lo.as_dvec3().cmpgt(hi).any() || lo.cmpgt(node.hi.as_dvec3()).any() {
+                continue;
+            }
+            if node.count > 0 {
+                for t in node.start as usize..(node.start + node.count) as usize {
+                    if visit(t) {
+                        return true;
+                    }
+                }
+            } else {
+                stack.push(node.start);
+                stack.push(node.start + 1);
+            }
+        }
+        false
     }
 
     /// The nearest triangle to `p` and its distance, in `f64` throughout (boxes and triangles are

@@ -16,6 +16,7 @@
 
 use crate::measure::{Bvh, Triangles, within};
 use crate::mesh::Mesh;
+use crate::simplify::DistanceError;
 use crate::simplify::quadric::Quadric;
 use glam::DVec3;
 use std::collections::BinaryHeap;
@@ -38,15 +39,6 @@ pub struct BoundedStats {
     /// Certified checks run (two per tried placement, until one fails).
     pub checks: usize,
     pub seconds: f64,
-}
-
-/// Why a bounded simplification cannot run.
-#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
-pub enum BoundedError {
-    #[error("the mesh has no triangles")]
-    Empty,
-    #[error("epsilon must be between 0 and 1 (a fraction of the diagonal), got {0}")]
-    Epsilon(f64),
 }
 
 /// What the certified checks leave below ε (relative).
@@ -108,13 +100,13 @@ pub fn simplify_bounded(
     mesh: &Mesh,
     options: &BoundedOptions,
     progress: &mut dyn FnMut(usize),
-) -> Result<(Mesh, BoundedStats), BoundedError> {
+) -> Result<(Mesh, BoundedStats), DistanceError> {
     let start = std::time::Instant::now();
     if mesh.triangles.is_empty() {
-        return Err(BoundedError::Empty);
+        return Err(DistanceError::Empty);
     }
     if !(options.epsilon > 0.0 && options.epsilon < 1.0) {
-        return Err(BoundedError::Epsilon(options.epsilon));
+        return Err(DistanceError::Epsilon(options.epsilon));
     }
     let (lo, hi) = mesh.bounds();
     // A thousandth below ε, so that an independent meter (`measure --certified`, whose bounds close
@@ -458,22 +450,7 @@ impl Work {
     }
 
     fn into_mesh(self) -> Mesh {
-        let mut index = vec![u32::MAX; self.positions.len()];
-        let mut positions = Vec::new();
-        let mut triangles = Vec::new();
-        for (f, t) in self.faces.iter().enumerate() {
-            if !self.alive[f] {
-                continue;
-            }
-            triangles.push(t.map(|v| {
-                if index[v as usize] == u32::MAX {
-                    index[v as usize] = positions.len() as u32;
-                    positions.push(self.positions[v as usize].as_vec3());
-                }
-                index[v as usize]
-            }));
-        }
-        Mesh::from_triangles(positions, triangles)
+        crate::simplify::live_mesh(&self.positions, &self.faces, &self.alive)
     }
 }
 

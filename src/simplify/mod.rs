@@ -4,13 +4,46 @@
 pub mod bounded;
 pub mod bounds;
 pub mod collapse;
+pub mod envelope;
 pub mod features;
 pub mod geometry;
+pub mod intersect;
 pub mod metric;
 pub mod pairs;
 pub mod quadric;
 
 pub use metric::Metric;
+
+/// Why a simplification within a distance (`bounded` or an envelope method) cannot run.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum DistanceError {
+    #[error("the mesh has no triangles")]
+    Empty,
+    #[error("epsilon must be between 0 and 1 (a fraction of the diagonal), got {0}")]
+    Epsilon(f64),
+}
+
+/// The live faces of a working mesh as a compact [`Mesh`] (unused vertices dropped, positions
+/// rounded to `f32`).
+pub(crate) fn live_mesh(
+    positions: &[glam::DVec3],
+    faces: &[[u32; 3]],
+    alive: &[bool],
+) -> crate::mesh::Mesh {
+    let mut index = vec![u32::MAX; positions.len()];
+    let mut out = Vec::new();
+    let mut triangles = Vec::new();
+    for (t, _) in faces.iter().zip(alive).filter(|(_, a)| **a) {
+        triangles.push(t.map(|v| {
+            if index[v as usize] == u32::MAX {
+                index[v as usize] = out.len() as u32;
+                out.push(positions[v as usize].as_vec3());
+            }
+            index[v as usize]
+        }));
+    }
+    crate::mesh::Mesh::from_triangles(out, triangles)
+}
 
 /// A small deterministic generator for the unit tests: uniform in [0, 1).
 #[cfg(test)]
