@@ -351,3 +351,41 @@ fn measure_certified_json() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--tolerance must be between 0 and 1"));
 }
+
+/// `vunify simplify` with every method writes every mesh format vunify reads, and `--json` has the
+/// summary; the output reads back with the triangle count the summary gives.
+#[test]
+fn simplify_every_method_and_format() {
+    let input = tmp("simplify-box.obj");
+    let box_mesh = vunify::fixtures::cuboid(glam::Vec3::new(2.0, 1.0, 1.0));
+    std::fs::write(&input, vunify::export::obj_string(&box_mesh)).unwrap();
+    for method in ["bounded", "offset-patch", "single-envelope", "cohen"] {
+        for ext in ["obj", "ply", "off", "obj.xz"] {
+            let output = tmp(&format!("simplify-{method}.{ext}"));
+            let args = [
+                "simplify",
+                input.to_str().unwrap(),
+                "-o",
+                output.to_str().unwrap(),
+                "--method",
+                method,
+                "--epsilon",
+                "0.05",
+                "--json",
+            ];
+            let j: serde_json::Value = serde_json::from_str(&ok(&vunify(&args))).unwrap();
+            assert_eq!(j["method"], method);
+            assert!(j["seconds"].as_f64().is_some());
+            let (back, _) =
+                vunify::mesh::load(&output, &vunify::mesh::CleanOptions::default()).unwrap();
+            assert_eq!(
+                back.triangle_count() as u64,
+                j["triangles"].as_u64().unwrap(),
+                "{method} .{ext}"
+            );
+        }
+    }
+    let out = vunify(&["simplify", input.to_str().unwrap(), "-o", "out.stl"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("must end in .obj, .ply or .off"));
+}

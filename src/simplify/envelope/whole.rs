@@ -69,16 +69,43 @@ impl Envelope {
     }
 }
 
+/// Area-weighted vertex normals, turned to point out of each connected part: a part whose signed
+/// volume is negative faces inward (the horse), and there "inner" would otherwise mean outside — which
+/// matters to the single envelope, the one side it guards.
 fn vertex_normals(mesh: &Mesh) -> Vec<DVec3> {
-    let mut n = vec![DVec3::ZERO; mesh.positions.len()];
+    let n = mesh.positions.len();
+    let mut normal = vec![DVec3::ZERO; n];
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut v: u32) -> u32 {
+        while parent[v as usize] != v {
+            parent[v as usize] = parent[parent[v as usize] as usize];
+            v = parent[v as usize];
+        }
+        v
+    }
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|v| mesh.positions[v as usize].as_dvec3());
         let area_normal = (b - a).cross(c - a);
         for v in t {
-            n[*v as usize] += area_normal;
+            normal[*v as usize] += area_normal;
+        }
+        let r = root(&mut parent, t[0]);
+        for &v in &t[1..] {
+            let s = root(&mut parent, v);
+            parent[s as usize] = r;
         }
     }
-    n.iter().map(|v| v.normalize_or_zero()).collect()
+    let mut volume = vec![0.0f64; n];
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| mesh.positions[v as usize].as_dvec3());
+        volume[root(&mut parent, t[0]) as usize] += a.dot(b.cross(c));
+    }
+    (0..n as u32)
+        .map(|v| {
+            let outward = volume[root(&mut parent, v) as usize] >= 0.0;
+            normal[v as usize].normalize_or_zero() * if outward { 1.0 } else { -1.0 }
+        })
+        .collect()
 }
 
 /// One envelope as a BVH (its vertices rounded to `f32`: the envelope is whatever the BVH holds,
