@@ -62,6 +62,9 @@ pub enum What {
     Compare(bool),
     /// Target triangle count of the compare view.
     CompareTriangles(u32),
+    /// The compare view's second row (simplifications within a distance) at this ε, a share of the
+    /// diagonal; `null` hides it.
+    CompareWithin(Option<f64>),
     Open(PathBuf),
     Screenshot(PathBuf),
     /// Start recording the camera into this file; `null` stops and writes it.

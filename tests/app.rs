@@ -3,6 +3,8 @@
 //! (`CI` set) a missing Xvfb or GPU fails the test instead of skipping it.
 #![cfg(feature = "viewer")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
@@ -217,6 +219,78 @@ fn scripted_run_shows_the_model_and_the_panel() {
         triangles(39),
         triangles(41)
     );
+}
+
+/// The compare view with its second row: the four metrics' cuts above, `bounded` and the three
+/// envelope methods at ε = 2 % below, each viewport showing its model.
+#[test]
+fn compare_view_shows_the_methods_within_epsilon() {
+    let Some(x) = xvfb() else { return };
+    let shot = tmp("compare.png");
+    let script = tmp("compare.json");
+    let model = tmp("compare-box.obj");
+    let bumpy = {
+        let mut m =
+            common::subdivided(&vunify::fixtures::cuboid(glam::Vec3::new(2.0, 1.0, 1.0)), 3);
+        for p in &mut m.positions {
+            p.z += 0.03 * (5.0 * p.x).sin();
+        }
+        m
+    };
+    std::fs::write(&model, vunify::export::obj_string(&bumpy)).unwrap();
+    std::fs::write(
+        &script,
+        serde_json::json!({
+            "frames": 150,
+            "actions": [
+                {"frame": 1, "compare": true},
+                {"frame": 2, "compare_within": 0.02},
+                {"frame": 149, "screenshot": shot},
+            ],
+        })
+        .to_string(),
+    )
+    .unwrap();
+    let runtime = tempdir_0700();
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args([
+            "view",
+            model.to_str().unwrap(),
+            "--size",
+            "1200x600",
+            "--script",
+        ])
+        .arg(&script)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("HOME", &runtime)
+        .env("XDG_CONFIG_HOME", runtime.join("config"))
+        .env("XDG_CACHE_HOME", runtime.join("cache"))
+        .output()
+        .expect("run vunify view");
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = image::open(&shot).expect("the screenshot").to_rgba8();
+    // The 3D view right of the 290-point panel: 4 × 2 viewports, each with light model pixels.
+    let (x0, w, h) = (290, 1200 - 290, 600);
+    for cell in 0..8u32 {
+        let (cx, cy) = (x0 + (cell % 4) * (w / 4), (cell / 4) * (h / 2));
+        let mut model = 0;
+        for y in cy + 30..cy + h / 2 {
+            for x in cx..cx + w / 4 {
+                let p = image.get_pixel(x, y);
+                model += (p[0] > 90 && p[1] > 90 && p[2] > 90) as u32;
+            }
+        }
+        assert!(
+            model > 500,
+            "viewport {cell} shows only {model} model pixels"
+        );
+    }
 }
 
 fn tempdir_0700() -> PathBuf {

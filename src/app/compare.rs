@@ -1,8 +1,9 @@
 //! Seed 003's comparison tool: the same model in up to four viewports, one per merge metric, each a
 //! build-order cut at the same triangle count, which can sweep down and up; any viewport's cut can be
-//! exported as OBJ.
+//! exported as OBJ. Below them, on request, the simplifications within a distance at one ε —
+//! `bounded` and the seed paper's three envelope methods — each at the triangle count it reached.
 
-use super::model::{LoadMessage, Loaded, spawn_load};
+use super::model::{LoadMessage, Loaded, spawn_load, spawn_within};
 use crate::mesh::{Mesh, Part};
 use crate::refine::{Front, Hierarchy};
 use crate::render::Renderer;
@@ -14,8 +15,29 @@ use std::sync::mpsc::Receiver;
 /// Seconds for a sweep from all triangles down to 1 % and back.
 pub const SWEEP_SECONDS: f32 = 8.0;
 
+/// What a viewport shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shown {
+    /// The tree built with this metric, cut at the view's target.
+    Metric(Metric),
+    /// A static simplification within a distance (`simplify --method NAME --epsilon E`).
+    Within { method: &'static str, epsilon: f64 },
+}
+
+impl Shown {
+    pub fn label(&self) -> String {
+        match self {
+            Shown::Metric(m) => m.name().to_string(),
+            Shown::Within { method, epsilon } => format!("{method} ε {} %", 100.0 * epsilon),
+        }
+    }
+}
+
+/// The methods of `simplify` shown in the second row.
+pub const WITHIN_METHODS: [&str; 4] = ["bounded", "offset-patch", "single-envelope", "cohen"];
+
 pub struct Slot {
-    pub metric: Metric,
+    pub shown: Shown,
     loading: Option<Receiver<LoadMessage>>,
     pub progress: f32,
     pub error: Option<String>,
@@ -37,6 +59,9 @@ pub struct CompareView {
     pub target: u32,
     pub sweep: bool,
     sweep_time: f32,
+    path: PathBuf,
+    /// ε of the second row, when shown.
+    pub within: Option<f64>,
 }
 
 impl CompareView {
@@ -50,7 +75,7 @@ impl CompareView {
         ]
         .into_iter()
         .map(|metric| Slot {
-            metric,
+            shown: Shown::Metric(metric),
             loading: Some(spawn_load(path.to_path_buf(), metric)),
             progress: 0.0,
             error: None,
@@ -62,7 +87,42 @@ impl CompareView {
             target,
             sweep: false,
             sweep_time: 0.0,
+            path: path.to_path_buf(),
+            within: None,
         }
+    }
+
+    /// Adds the second row at `epsilon` (replacing one at another ε), or removes it (`None`).
+    pub fn set_within(&mut self, epsilon: Option<f64>) {
+        if self.within == epsilon {
+            return;
+        }
+        self.within = epsilon;
+        self.slots.retain(|s| matches!(s.shown, Shown::Metric(_)));
+        let Some(epsilon) = epsilon else { return };
+        for method in WITHIN_METHODS {
+            self.slots.push(Slot {
+                shown: Shown::Within { method, epsilon },
+                loading: Some(spawn_within(self.path.clone(), method, epsilon)),
+                progress: 0.0,
+                error: None,
+                ready: None,
+            });
+        }
+    }
+
+    /// Columns and rows of the viewport grid: 2 × 2 for the metrics, 4 × 2 with the second row.
+    pub fn grid(&self) -> (u32, u32) {
+        let columns = if self.slots.len() > 4 { 4 } else { 2 };
+        (columns, (self.slots.len() as u32).div_ceil(columns))
+    }
+
+    /// The `i`-th viewport's corner and size within a `width × height` area.
+    pub fn cell(&self, i: usize, width: u32, height: u32) -> ([u32; 2], [u32; 2]) {
+        let (columns, rows) = self.grid();
+        let (w, h) = (width / columns, height / rows.max(1));
+        let i = i as u32;
+        ([(i % columns) * w, (i / columns) * h], [w, h])
     }
 
     /// Receives finished builds; moves every ready front to the target triangle count.
@@ -105,6 +165,7 @@ impl CompareView {
         let total = self
             .slots
             .iter()
+            .filter(|s| matches!(s.shown, Shown::Metric(_)))
             .filter_map(|s| s.ready.as_ref())
             .map(|r| r.loaded.tree.triangles.len() as u32)
             .max()
@@ -116,9 +177,16 @@ impl CompareView {
             let x = 1.0 - (2.0 * phase - 1.0).abs();
             self.target = ((total as f32) * 0.01f32.powf(x)).round().max(1.0) as u32;
         }
-        for ready in self.slots.iter_mut().filter_map(|s| s.ready.as_mut()) {
-            ready.set_triangles(self.target);
-            ready.renderer.upload(device, queue, &mut ready.front, &[]);
+        for slot in &mut self.slots {
+            let target = match slot.shown {
+                Shown::Metric(_) => self.target,
+                // A static result: all of it.
+                Shown::Within { .. } => u32::MAX,
+            };
+            if let Some(ready) = &mut slot.ready {
+                ready.set_triangles(target);
+                ready.renderer.upload(device, queue, &mut ready.front, &[]);
+            }
         }
     }
 }
@@ -144,8 +212,9 @@ impl Ready {
         }
     }
 
-    /// Writes the current cut as OBJ into `dir`; returns the file.
-    pub fn export(&self, dir: &Path) -> Result<PathBuf, String> {
+    /// Writes the current cut as OBJ into `dir`, named after the model, `label` and its triangle
+    /// count; returns the file.
+    pub fn export(&self, dir: &Path, label: &str) -> Result<PathBuf, String> {
         let h = &self.loaded.hierarchy;
         let mut index = std::collections::HashMap::new();
         let mut positions: Vec<Vec3> = Vec::new();
@@ -159,12 +228,18 @@ impl Ready {
             }));
         }
         let mut mesh = Mesh::from_triangles(positions, triangles);
+        let label: String = label
+            .chars()
+            .map(|c| {
+                if c.is_alphanumeric() || c == '.' {
+                    c
+                } else {
+                    '-'
+                }
+            })
+            .collect();
         mesh.parts = vec![Part {
-            name: format!(
-                "{}-{}",
-                self.loaded.metric.name(),
-                self.front.triangle_count()
-            ),
+            name: format!("{label}-{}", self.front.triangle_count()),
             triangles: 0..mesh.triangles.len() as u32,
         }];
         let stem = self
@@ -174,8 +249,7 @@ impl Ready {
             .map(|s| s.to_string_lossy().to_string())
             .unwrap_or_else(|| "model".into());
         let file = dir.join(format!(
-            "{stem}-{}-{}.obj",
-            self.loaded.metric.name(),
+            "{stem}-{label}-{}.obj",
             self.front.triangle_count()
         ));
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;

@@ -62,8 +62,8 @@ pub(super) fn draw_frame(
             // Clear once, then each ready method into its quadrant.
             let mut cleared = false;
             for (i, slot) in compare.slots.iter().enumerate() {
-                let (qw, qh) = (w / 2, h / 2);
-                let (x, y) = (x0 + (i as u32 % 2) * qw, (i as u32 / 2) * qh);
+                let ([x, y], [qw, qh]) = compare.cell(i, w, h);
+                let x = x0 + x;
                 if let Some(ready) = &slot.ready {
                     let mut cam = *camera;
                     cam.viewport_px = [qw.max(1), qh.max(1)];

@@ -389,6 +389,14 @@ pub(super) fn apply(what: &What, view: &mut ViewState, settings: &mut ViewerSett
                 c.target = *n;
             }
         }
+        What::CompareWithin(epsilon) => {
+            if let Some(e) = epsilon {
+                view.within_epsilon = (100.0 * e) as f32;
+            }
+            if let Some(c) = &mut view.compare {
+                c.set_within(*epsilon);
+            }
+        }
         What::Open(path) => view.open(path.clone()),
         What::Record(Some(file)) => {
             view.record_text = file.display().to_string();

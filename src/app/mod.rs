@@ -180,6 +180,7 @@ impl App {
             playback: None,
             recording: None,
             compare: None,
+            within_epsilon: 1.0,
             open_text: String::new(),
             path_text: "fly-in".into(),
             record_text: "out/recorded-path.json".into(),

@@ -42,6 +42,63 @@ pub fn spawn_load(path: PathBuf, metric: Metric) -> Receiver<LoadMessage> {
     rx
 }
 
+/// Starts simplifying the mesh at `path` within `epsilon` by `method` (a `simplify --method` name)
+/// on a new thread; the result comes as a tree of its own, shown whole.
+pub fn spawn_within(path: PathBuf, method: &'static str, epsilon: f64) -> Receiver<LoadMessage> {
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        let progress = tx.clone();
+        let result = load_within(&path, method, epsilon, &mut |share, what| {
+            let _ = progress.send(LoadMessage::Progress(share, what.to_string()));
+        });
+        let _ = tx.send(LoadMessage::Done(result));
+    });
+    rx
+}
+
+fn load_within(
+    path: &Path,
+    method: &str,
+    epsilon: f64,
+    progress: &mut dyn FnMut(f32, &str),
+) -> Result<Loaded, String> {
+    use crate::simplify::bounded::{BoundedOptions, simplify_bounded};
+    use crate::simplify::envelope::{EnvelopeOptions, Method, simplify_envelope};
+    let (mesh, _) = crate::mesh::load(path, &crate::mesh::CleanOptions::default())
+        .map_err(|e| e.to_string())?;
+    let total = mesh.triangle_count().max(1) as f32;
+    let mut simplifying = |now: usize| progress(0.9 * (1.0 - now as f32 / total), "simplifying");
+    let envelope = match method {
+        "offset-patch" => Some(Method::OffsetPatch),
+        "single-envelope" => Some(Method::SingleEnvelope),
+        "cohen" => Some(Method::Cohen),
+        _ => None,
+    };
+    let simplified = match envelope {
+        Some(method) => {
+            let options = EnvelopeOptions {
+                method,
+                epsilon,
+                target_triangles: 0,
+            };
+            simplify_envelope(&mesh, &options, &mut simplifying).map(|r| r.0)
+        }
+        None => {
+            let options = BoundedOptions {
+                epsilon,
+                target_triangles: 0,
+            };
+            simplify_bounded(&mesh, &options, &mut simplifying).map(|r| r.0)
+        }
+    }
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    let options = BuildOptions::default();
+    let (tree, _) = vtree::build(&simplified, &options, &mut |_, _| {})
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    progress(1.0, "preparing the runtime");
+    Ok(ready(path, options.metric, tree, false))
+}
+
 /// Loads synchronously (the background thread's body; scripts and tests call it directly).
 pub fn load(
     path: &Path,
@@ -84,11 +141,15 @@ pub fn load(
     tree.check_viewable()
         .map_err(|e| format!("{}: {e}", path.display()))?;
     progress(1.0, "preparing the runtime");
+    Ok(ready(path, metric, tree, cached))
+}
+
+fn ready(path: &Path, metric: Metric, tree: VertexTree, cached: bool) -> Loaded {
     let hierarchy = Hierarchy::new(&tree);
     let leaves = &hierarchy.position[..hierarchy.leaf_count as usize];
     let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
     let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
-    Ok(Loaded {
+    Loaded {
         path: path.to_path_buf(),
         metric,
         tree: Arc::new(tree),
@@ -96,7 +157,7 @@ pub fn load(
         center: (lo + hi) * 0.5,
         radius: ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),
         cached,
-    })
+    }
 }
 
 /// Where the tree of a mesh with these bytes, built with `metric` and default options by this

@@ -41,6 +41,8 @@ pub struct ViewState {
     pub playback: Option<Playback>,
     pub recording: Option<Recording>,
     pub compare: Option<CompareView>,
+    /// ε of the compare view's second row, in % of the diagonal.
+    pub within_epsilon: f32,
     pub open_text: String,
     pub path_text: String,
     pub record_text: String,

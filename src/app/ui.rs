@@ -279,15 +279,39 @@ fn compare_section(ui: &mut Ui, view: &mut ViewState) {
                 .text("triangles"),
         );
         ui.checkbox(&mut c.sweep, "sweep down and up");
+        let mut within = c.within.is_some();
+        let mut epsilon = view.within_epsilon;
+        let (toggled, settled) = ui
+            .horizontal(|ui| {
+                let toggled = ui.checkbox(&mut within, "within ε (second row)").changed();
+                let r = ui
+                    .add(
+                        egui::DragValue::new(&mut epsilon)
+                            .range(0.1..=10.0)
+                            .speed(0.05)
+                            .suffix(" %"),
+                    )
+                    .on_hover_text(
+                        "bounded and the three envelope methods at this ε (a share of the diagonal)",
+                    );
+                (toggled, r.drag_stopped() || (r.changed() && !r.dragged()))
+            })
+            .inner;
+        view.within_epsilon = epsilon;
+        // Rebuilt when switched on or when ε settles (not at every step of a drag).
+        if toggled || (settled && within) {
+            c.set_within(within.then_some(0.01 * f64::from(epsilon)));
+        }
         for slot in &c.slots {
             ui.horizontal(|ui| {
-                ui.label(slot.metric.name());
+                ui.label(slot.shown.label());
                 if let Some(e) = &slot.error {
                     ui.colored_label(ERROR_RED, e);
                 } else if let Some(ready) = &slot.ready {
                     ui.label(format!("{} triangles", ready.front.triangle_count()));
                     if ui.small_button("export OBJ").clicked() {
-                        message = Some(match ready.export(std::path::Path::new("out/compare")) {
+                        let dir = std::path::Path::new("out/compare");
+                        message = Some(match ready.export(dir, &slot.shown.label()) {
                             Ok(f) => Ok(format!("wrote {}", f.display())),
                             Err(e) => Err(e),
                         });
@@ -460,19 +484,18 @@ fn overlays(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings, ca
     if let Some(c) = &view.compare {
         let [w, h] = view.size;
         for (i, slot) in c.slots.iter().enumerate() {
-            let (x, y) = (
-                view.scene_x + (i as u32 % 2) * w / 2,
-                (i as u32 / 2) * h / 2,
-            );
-            let text = match &slot.ready {
-                Some(r) => format!(
+            let ([x, y], _) = c.cell(i, w, h);
+            let x = view.scene_x + x;
+            let text = match (&slot.ready, &slot.error) {
+                (Some(r), _) => format!(
                     "{}: {} triangles",
-                    slot.metric.name(),
+                    slot.shown.label(),
                     r.front.triangle_count()
                 ),
-                None => format!(
+                (None, Some(e)) => format!("{}: {e}", slot.shown.label()),
+                (None, None) => format!(
                     "{}: building {:.0} %",
-                    slot.metric.name(),
+                    slot.shown.label(),
                     slot.progress * 100.0
                 ),
             };
