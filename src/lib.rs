@@ -14,6 +14,7 @@ pub mod export;
 pub mod fixtures;
 pub mod measure;
 pub mod mesh;
+pub mod radiosity;
 pub mod refine;
 #[cfg(feature = "render")]
 pub mod render;

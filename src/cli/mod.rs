@@ -8,6 +8,7 @@ mod extract;
 mod info;
 mod measure;
 mod path;
+mod radiosity;
 mod render;
 mod simplify;
 mod view;
@@ -54,9 +55,12 @@ enum Command {
     /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling), or with
     /// --certified, proven lower and upper bounds on it.
     Measure(measure::MeasureArgs),
-    /// Simplify a mesh to the fewest triangles whose distance to it is certified within ε, both
-    /// ways.
+    /// Simplify a mesh within a distance ε: certified both ways (bounded), or inside the seed
+    /// paper's envelopes (offset-patch, single-envelope, cohen).
     Simplify(simplify::SimplifyArgs),
+    /// Light a scene (OBJ + MTL) by progressive refinement radiosity and write the lit mesh (PLY
+    /// or OBJ with per-vertex radiosity).
+    Radiosity(radiosity::RadiosityArgs),
 }
 
 /// Parses the command line and runs the command.
@@ -71,6 +75,7 @@ pub fn run() -> Result<()> {
         Some(Command::View(args)) => view::run(args),
         Some(Command::Measure(args)) => measure::run(args),
         Some(Command::Simplify(args)) => simplify::run(args),
+        Some(Command::Radiosity(args)) => radiosity::run(args),
     }
 }
 

