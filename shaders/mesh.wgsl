@@ -42,6 +42,12 @@ fn depth_color(d: f32) -> vec3<f32> {
     return clamp(abs(fract(vec3<f32>(h) + k) * 6.0 - 3.0) - 1.0, vec3<f32>(0.0), vec3<f32>(1.0)) * 0.75 + 0.2;
 }
 
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    let low = c / 12.92;
+    let high = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
+    return select(high, low, c <= vec3<f32>(0.04045));
+}
+
 @vertex
 fn vs_main(v: VertexIn) -> VertexOut {
     var out: VertexOut;
@@ -50,6 +56,9 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.normal = decode_octahedral(v.normal);
     switch g.modes.x {
         case 1u: { out.color = vec4<f32>(v.color.rgb, 1.0); }
+        // Baked: 8-bit display colours are sRGB-encoded; decoded here, the sRGB target re-encodes
+        // them, so they reach the screen as stored.
+        case 4u: { out.color = vec4<f32>(srgb_to_linear(v.color.rgb), 1.0); }
         case 2u: { out.color = vec4<f32>(depth_color(v.debug.y), 1.0); }
         case 3u: {
             let d = max(distance(v.position, g.eye.xyz), g.params.y);
@@ -63,6 +72,9 @@ fn vs_main(v: VertexIn) -> VertexOut {
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    if (g.modes.x == 4u) {
+        return vec4<f32>(in.color.rgb, 1.0);
+    }
     var n = in.normal;
     if (g.modes.y == 1u || dot(n, n) < 0.5) {
         // Flat: the face normal from screen-space derivatives (also where a vertex has no normal).

@@ -9,6 +9,9 @@ pub enum ColorBy {
     Auto,
     /// Neutral grey, lit.
     Shaded,
+    /// The vertex colours as they are, unlit: for meshes with baked lighting (`vunify radiosity`),
+    /// whose 8-bit display colours then reach the screen unchanged.
+    Baked,
     /// Hue by the node's depth in the tree.
     Depth,
     /// The node's error projected on screen: blue at 0, green at τ, red at 2τ and above.

@@ -158,6 +158,7 @@ fn display_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSetti
         .selected_text(match settings.color_by {
             ColorBy::Auto => "model",
             ColorBy::Shaded => "shaded",
+            ColorBy::Baked => "baked (unlit)",
             ColorBy::Depth => "tree depth",
             ColorBy::Error => "projected error",
         })
@@ -168,6 +169,11 @@ fn display_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSetti
                 "model (vertex colours if any)",
             );
             ui.selectable_value(&mut settings.color_by, ColorBy::Shaded, "shaded");
+            ui.selectable_value(
+                &mut settings.color_by,
+                ColorBy::Baked,
+                "baked lighting (vertex colours, unlit)",
+            );
             ui.selectable_value(&mut settings.color_by, ColorBy::Depth, "tree depth");
             ui.selectable_value(
                 &mut settings.color_by,

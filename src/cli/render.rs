@@ -44,8 +44,9 @@ pub struct RenderArgs {
     /// the surface drawn more than τ pixels from where it belongs, with many more triangles.
     #[arg(long)]
     strict: bool,
-    /// Surface colours: auto (vertex colours if any, else grey), shaded, depth (tree depth) or error
-    /// (projected error: blue 0, green τ, red 2τ).
+    /// Surface colours: auto (vertex colours if any, else grey; lit), shaded, baked (vertex colours
+    /// unlit, for lit meshes from `vunify radiosity`), depth (tree depth) or error (projected error:
+    /// blue 0, green τ, red 2τ).
     #[arg(long, value_enum, default_value = "auto")]
     color_by: ColorChoice,
 }
@@ -54,6 +55,7 @@ pub struct RenderArgs {
 enum ColorChoice {
     Auto,
     Shaded,
+    Baked,
     Depth,
     Error,
 }
@@ -112,6 +114,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         color_by: match args.color_by {
             ColorChoice::Auto => ColorBy::Auto,
             ColorChoice::Shaded => ColorBy::Shaded,
+            ColorChoice::Baked => ColorBy::Baked,
             ColorChoice::Depth => ColorBy::Depth,
             ColorChoice::Error => ColorBy::Error,
         },

@@ -40,12 +40,17 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
     };
     let n = mesh.positions.len();
 
-    // 1. Weld: remap[v] = the first vertex with v's position.
+    // 1. Weld: remap[v] = the first vertex with v's position (and colour: vertices at one place
+    // with different colours are a colour seam, such as the corner between two walls of a lit
+    // scene, and keep their own colours).
     let mut remap: Vec<u32> = (0..n as u32).collect();
     if options.weld {
-        let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(n);
+        let mut first: HashMap<[u32; 6], u32> = HashMap::with_capacity(n);
         for (i, p) in mesh.positions.iter().enumerate() {
-            let key = (*p + glam::Vec3::ZERO).to_array().map(f32::to_bits); // + 0.0 turns -0.0 into 0.0
+            let bits = |v: glam::Vec3| (v + glam::Vec3::ZERO).to_array().map(f32::to_bits); // + 0.0 turns -0.0 into 0.0
+            let [x, y, z] = bits(*p);
+            let [r, g, b] = mesh.colors.as_ref().map_or([0; 3], |c| bits(c[i]));
+            let key = [x, y, z, r, g, b];
             match first.entry(key) {
                 Entry::Occupied(e) => {
                     remap[i] = *e.get();

@@ -398,6 +398,7 @@ impl Renderer {
             ColorBy::Auto | ColorBy::Shaded => 0,
             ColorBy::Depth => 2,
             ColorBy::Error => 3,
+            ColorBy::Baked => 4,
         };
         let globals = Globals {
             clip_from_world: camera.clip_from_world().to_cols_array_2d(),
