@@ -46,6 +46,10 @@ fn clear_stale_display(n: u32) {
     }
 }
 
+/// The tests here run one at a time: two starting Xvfb at once would pick the same free display
+/// number, and one would end up on the other's server.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// A private X server on a free display number, or `None` (skipping) outside CI without Xvfb.
 fn xvfb() -> Option<Xvfb> {
     for n in 90..140 {
@@ -96,6 +100,7 @@ fn tmp(name: &str) -> PathBuf {
 
 #[test]
 fn scripted_run_shows_the_model_and_the_panel() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let Some(x) = xvfb() else { return };
     let shot = tmp("view.png");
     let stats = tmp("stats.json");
@@ -225,6 +230,7 @@ fn scripted_run_shows_the_model_and_the_panel() {
 /// envelope methods at ε = 2 % below, each viewport showing its model.
 #[test]
 fn compare_view_shows_the_methods_within_epsilon() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let Some(x) = xvfb() else { return };
     let shot = tmp("compare.png");
     let script = tmp("compare.json");

@@ -11,6 +11,7 @@ mod path;
 mod radiosity;
 mod render;
 mod simplify;
+mod superfaces;
 mod view;
 
 use anyhow::Result;
@@ -61,6 +62,9 @@ enum Command {
     /// Light a scene (OBJ + MTL) by progressive refinement radiosity and write the lit mesh (PLY
     /// or OBJ with per-vertex radiosity).
     Radiosity(radiosity::RadiosityArgs),
+    /// Simplify a lit mesh the seed paper's way: superfaces of coplanar patches of similar
+    /// radiosity, straightened boundaries, triangulated anew.
+    Superfaces(superfaces::SuperfacesArgs),
 }
 
 /// Parses the command line and runs the command.
@@ -76,6 +80,7 @@ pub fn run() -> Result<()> {
         Some(Command::Measure(args)) => measure::run(args),
         Some(Command::Simplify(args)) => simplify::run(args),
         Some(Command::Radiosity(args)) => radiosity::run(args),
+        Some(Command::Superfaces(args)) => superfaces::run(args),
     }
 }
 

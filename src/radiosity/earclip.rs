@@ -1,0 +1,281 @@
+//! Triangulating a superface the seed paper's way (Liu and Wu, §3): holes are bridged to the outer
+//! ring, in `TOP` order, through the best outer edge; the one simple polygon that makes is ear-clipped,
+//! always at the convex corner whose ear has the largest weight `cos A + cos B + cos C − 1` (0 for
+//! reflex corners), never at an ear holding another corner, updating the two neighbours' weights.
+//!
+//! The weight is largest (1/2) for an equilateral ear and 0 for a degenerate one, so the clipping
+//! cuts well-shaped triangles first and leaves slivers for last, when nothing else is left.
+
+use glam::DVec2;
+
+/// `TOP(P)`: the ring's highest corner, `(x, y) > (u, v)` iff `y > v`, or `y = v` and `x > u`.
+fn top(ring: &[DVec2]) -> usize {
+    (0..ring.len())
+        .max_by(|&a, &b| {
+            let (p, q) = (ring[a], ring[b]);
+            p.y.total_cmp(&q.y).then(p.x.total_cmp(&q.x))
+        })
+        .unwrap_or(0)
+}
+
+fn cross(o: DVec2, a: DVec2, b: DVec2) -> f64 {
+    (a - o).perp_dot(b - o)
+}
+
+/// Whether the open segments `ab` and `cd` cross (touching at an end does not count).
+fn segments_cross(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
+    let (d1, d2) = (cross(c, d, a), cross(c, d, b));
+    let (d3, d4) = (cross(a, b, c), cross(a, b, d));
+    ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+}
+
+/// Distance from `v` to the segment `ab`: the paper's `D(l, v)`.
+fn distance_to_segment(v: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let t = if ab.length_squared() > 0.0 {
+        ((v - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    v.distance(a + ab * t)
+}
+
+/// One simple polygon (corner ids into `points`) from an outer ring (counter-clockwise) and holes
+/// (clockwise), each hole joined to the outer ring by a bridge there and back.
+pub fn bridge(points: &[DVec2], outer: &[u32], holes: &[Vec<u32>]) -> Vec<u32> {
+    let mut polygon: Vec<u32> = outer.to_vec();
+    let mut order: Vec<&Vec<u32>> = holes.iter().filter(|h| h.len() >= 3).collect();
+    // Highest TOP first, as the paper orders them.
+    order.sort_by(|a, b| {
+        let (p, q) = (top_point(points, a), top_point(points, b));
+        q.y.total_cmp(&p.y).then(q.x.total_cmp(&p.x))
+    });
+    for (k, hole) in order.iter().enumerate() {
+        let ring: Vec<DVec2> = hole.iter().map(|&i| points[i as usize]).collect();
+        let start = top(&ring);
+        let v = ring[start];
+        // Outer edges by D(l, v), nearest first; the bridge goes to the nearer end of the first
+        // edge whose bridge crosses no edge of the polygon or of a hole still to come.
+        let n = polygon.len();
+        let mut edges: Vec<(f64, usize)> = (0..n)
+            .map(|i| {
+                let (a, b) = (
+                    points[polygon[i] as usize],
+                    points[polygon[(i + 1) % n] as usize],
+                );
+                (distance_to_segment(v, a, b), i)
+            })
+            .collect();
+        edges.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let others: Vec<&Vec<u32>> = order[k + 1..].to_vec();
+        let crosses = |w: DVec2| {
+            let ring_cross = |r: &[u32]| {
+                (0..r.len()).any(|i| {
+                    let (a, b) = (points[r[i] as usize], points[r[(i + 1) % r.len()] as usize]);
+                    segments_cross(v, w, a, b)
+                })
+            };
+            ring_cross(&polygon) || ring_cross(hole) || others.iter().any(|h| ring_cross(h))
+        };
+        let mut chosen = None;
+        'search: for &(_, i) in &edges {
+            let (a, b) = (polygon[i], polygon[(i + 1) % n]);
+            let (pa, pb) = (points[a as usize], points[b as usize]);
+            let ends = if pa.distance(v) <= pb.distance(v) {
+                [(i, pa), ((i + 1) % n, pb)]
+            } else {
+                [((i + 1) % n, pb), (i, pa)]
+            };
+            for (at, w) in ends {
+                if !crosses(w) {
+                    chosen = Some(at);
+                    break 'search;
+                }
+            }
+        }
+        let at = chosen.unwrap_or(edges[0].1);
+        // polygon[..=at], the hole from its top all the way round and back to its top, then
+        // polygon[at..].
+        let mut next = polygon[..=at].to_vec();
+        next.extend((0..=hole.len()).map(|j| hole[(start + j) % hole.len()]));
+        next.extend(&polygon[at..]);
+        polygon = next;
+    }
+    polygon
+}
+
+fn top_point(points: &[DVec2], ring: &[u32]) -> DVec2 {
+    let r: Vec<DVec2> = ring.iter().map(|&i| points[i as usize]).collect();
+    r[top(&r)]
+}
+
+/// The paper's ear weight: `cos A + cos B + cos C − 1` of the triangle `abc` when `b` is convex,
+/// else 0.
+fn weight(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+    if cross(a, b, c) <= 0.0 {
+        return 0.0;
+    }
+    let cos = |o: DVec2, p: DVec2, q: DVec2| {
+        let (u, v) = (p - o, q - o);
+        let l = u.length() * v.length();
+        if l > 0.0 { u.dot(v) / l } else { 1.0 }
+    };
+    cos(a, b, c) + cos(b, c, a) + cos(c, a, b) - 1.0
+}
+
+/// Whether `p` lies inside the closed triangle `abc` (counter-clockwise).
+fn inside(p: DVec2, a: DVec2, b: DVec2, c: DVec2) -> bool {
+    cross(a, b, p) >= 0.0 && cross(b, c, p) >= 0.0 && cross(c, a, p) >= 0.0
+}
+
+/// Ear-clips a simple counter-clockwise polygon (ids into `points`, bridges allowed: an id may
+/// appear twice); returns triangles of ids.
+pub fn ear_clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
+    let mut ring: Vec<u32> = polygon.to_vec();
+    let mut out = Vec::with_capacity(ring.len().saturating_sub(2));
+    let p = |i: u32| points[i as usize];
+    let ear_weight = |ring: &[u32], k: usize| {
+        let n = ring.len();
+        let (a, b, c) = (ring[(k + n - 1) % n], ring[k], ring[(k + 1) % n]);
+        weight(p(a), p(b), p(c))
+    };
+    let mut weights: Vec<f64> = (0..ring.len()).map(|k| ear_weight(&ring, k)).collect();
+    while ring.len() > 3 {
+        let n = ring.len();
+        // Best valid ear: the largest weight whose triangle holds no other corner.
+        let mut candidates: Vec<usize> = (0..n).filter(|&k| weights[k] > 0.0).collect();
+        candidates.sort_by(|&x, &y| weights[y].total_cmp(&weights[x]));
+        let valid = |k: usize| {
+            let (a, b, c) = (ring[(k + n - 1) % n], ring[k], ring[(k + 1) % n]);
+            ring.iter().all(|&q| {
+                q == a
+                    || q == b
+                    || q == c
+                    || p(q) == p(a)
+                    || p(q) == p(b)
+                    || p(q) == p(c)
+                    || !inside(p(q), p(a), p(b), p(c))
+            })
+        };
+        // With no valid convex ear (only possible for a polygon that is not simple, e.g. a bad
+        // bridge), cut the first corner so the loop ends.
+        let k = candidates.into_iter().find(|&k| valid(k)).unwrap_or(0);
+        out.push([ring[(k + n - 1) % n], ring[k], ring[(k + 1) % n]]);
+        ring.remove(k);
+        weights.remove(k);
+        let n = ring.len();
+        let (before, after) = ((k + n - 1) % n, k % n);
+        weights[before] = ear_weight(&ring, before);
+        weights[after] = ear_weight(&ring, after);
+    }
+    out.push([ring[0], ring[1], ring[2]]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn area(points: &[DVec2], tris: &[[u32; 3]]) -> f64 {
+        tris.iter()
+            .map(|t| {
+                0.5 * cross(
+                    points[t[0] as usize],
+                    points[t[1] as usize],
+                    points[t[2] as usize],
+                )
+            })
+            .sum()
+    }
+
+    /// A unit square: two triangles, both counter-clockwise, area 1.
+    /// ```text
+    ///   3───2
+    ///   │   │
+    ///   0───1
+    /// ```
+    #[test]
+    fn a_square() {
+        let pts = [(0., 0.), (1., 0.), (1., 1.), (0., 1.)]
+            .map(DVec2::from)
+            .to_vec();
+        let tris = ear_clip(&pts, &[0, 1, 2, 3]);
+        assert_eq!(tris.len(), 2);
+        assert!((area(&pts, &tris) - 1.0).abs() < 1e-12);
+        assert!(tris.iter().all(|t| cross(
+            pts[t[0] as usize],
+            pts[t[1] as usize],
+            pts[t[2] as usize]
+        ) > 0.0));
+    }
+
+    /// An L (six corners, one reflex at 4): four triangles, none across the notch; the reflex
+    /// corner is never cut.
+    /// ```text
+    ///   5───4
+    ///   │   │
+    ///   │   3───2
+    ///   │       │
+    ///   0───────1
+    /// ```
+    #[test]
+    fn an_l_shape() {
+        let pts = [(0., 0.), (2., 0.), (2., 1.), (1., 1.), (1., 2.), (0., 2.)]
+            .map(DVec2::from)
+            .to_vec();
+        let tris = ear_clip(&pts, &[0, 1, 2, 3, 4, 5]);
+        assert_eq!(tris.len(), 4);
+        assert!((area(&pts, &tris) - 3.0).abs() < 1e-12);
+        for t in &tris {
+            let c = (pts[t[0] as usize] + pts[t[1] as usize] + pts[t[2] as usize]) / 3.0;
+            assert!(
+                !(c.x > 1.0 && c.y > 1.0),
+                "a triangle across the notch: {t:?}"
+            );
+        }
+    }
+
+    /// A square with a square hole: bridged from the hole's top to the outer ring (10 corners:
+    /// 4 + 4, and the bridge's two ends twice), then 8 triangles covering area 16 − 4.
+    /// ```text
+    ///   3───────────2
+    ///   │   7───6   │
+    ///   │   │   │   │
+    ///   │   4───5   │
+    ///   0───────────1
+    /// ```
+    #[test]
+    fn a_square_with_a_hole() {
+        let pts = [
+            (0., 0.),
+            (4., 0.),
+            (4., 4.),
+            (0., 4.),
+            (1., 1.),
+            (3., 1.),
+            (3., 3.),
+            (1., 3.),
+        ]
+        .map(DVec2::from)
+        .to_vec();
+        // The hole clockwise.
+        let polygon = bridge(&pts, &[0, 1, 2, 3], &[vec![4, 7, 6, 5]]);
+        assert_eq!(polygon.len(), 10);
+        let tris = ear_clip(&pts, &polygon);
+        assert_eq!(tris.len(), 8);
+        assert!(
+            (area(&pts, &tris) - 12.0).abs() < 1e-12,
+            "{}",
+            area(&pts, &tris)
+        );
+        // No triangle covers the hole.
+        for t in &tris {
+            let c = (pts[t[0] as usize] + pts[t[1] as usize] + pts[t[2] as usize]) / 3.0;
+            assert!(
+                !(c.x > 1.0 && c.x < 3.0 && c.y > 1.0 && c.y < 3.0),
+                "{t:?} covers the hole"
+            );
+        }
+    }
+}
