@@ -121,3 +121,17 @@ fn bad_input_is_a_clear_error() {
     let e = simplify_superfaces(&lit, &options(-1.0, 2.0)).unwrap_err();
     assert!(e.to_string().contains("epsilon"), "{e}");
 }
+
+/// The same input gives the same output, run after run (no hash-map order leaks into the growth).
+#[test]
+fn runs_are_repeatable() {
+    let grid = lit_grid(12, |x, y| {
+        Vec3::new((x * 0.37).sin().abs(), (y * 0.21).cos().abs(), 0.4)
+    });
+    let (a, _) = simplify_superfaces(&grid, &options(0.3, 3.0)).unwrap();
+    for _ in 0..5 {
+        let (b, _) = simplify_superfaces(&grid, &options(0.3, 3.0)).unwrap();
+        assert_eq!(a.triangles, b.triangles);
+        assert_eq!(a.positions, b.positions);
+    }
+}

@@ -172,6 +172,12 @@ impl<'a> Patches<'a> {
                 }
             }
         }
+        // In face order, whatever order the edge map gave: the growth (and so the output) is the
+        // same on every run.
+        for list in &mut neighbours {
+            list.sort_unstable();
+            list.dedup();
+        }
         let (lo, hi) = mesh.bounds();
         Ok(Patches {
             mesh,
