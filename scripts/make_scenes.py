@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Writes the bundled radiosity scenes (assets/scenes/*.obj + .mtl). Run from the repository root:
+"""Writes the bundled radiosity scenes (assets/scenes/*.obj + .mtl): the Cornell box, a room like
+Fig. 2 and an office like Fig. 5 of Liu and Wu's paper. Run from the repository root:
 
     python3 scripts/make_scenes.py
 
@@ -114,7 +115,141 @@ def cornell(out):
         )
 
 
+def box(w, name, material, lo, hi, bottom=False):
+    """An axis-aligned box as outward-facing quads (y up); its bottom only if asked."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    centre = ((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2)
+    faces = {
+        "top": [(x0, y1, z0), (x1, y1, z0), (x1, y1, z1), (x0, y1, z1)],
+        "bottom": [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
+        "front": [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0)],
+        "back": [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
+        "left": [(x0, y0, z0), (x0, y1, z0), (x0, y1, z1), (x0, y0, z1)],
+        "right": [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
+    }
+    for side, c in faces.items():
+        if side == "bottom" and not bottom:
+            continue
+        w.polygon(f"{name}_{side}", material, away(c, centre))
+
+
+def shell(w, size, wall="wall", floor="floor", ceiling="ceiling"):
+    """A room's floor, ceiling and four walls, facing in."""
+    x, y, z = size
+    centre = (x / 2, y / 2, z / 2)
+    w.polygon("floor", floor, facing([(0, 0, 0), (x, 0, 0), (x, 0, z), (0, 0, z)], centre))
+    w.polygon("ceiling", ceiling, facing([(0, y, 0), (x, y, 0), (x, y, z), (0, y, z)], centre))
+    w.polygon("wall_south", wall, facing([(0, 0, 0), (x, 0, 0), (x, y, 0), (0, y, 0)], centre))
+    w.polygon("wall_north", wall, facing([(0, 0, z), (x, 0, z), (x, y, z), (0, y, z)], centre))
+    w.polygon("wall_west", wall, facing([(0, 0, 0), (0, y, 0), (0, y, z), (0, 0, z)], centre))
+    w.polygon("wall_east", wall, facing([(x, 0, 0), (x, y, 0), (x, y, z), (x, 0, z)], centre))
+
+
+def table(w, name, x, z, width, depth, height, material):
+    box(w, f"{name}_top", material, (x, height - 0.04, z), (x + width, height, z + depth), bottom=True)
+    for i, (lx, lz) in enumerate([(x + 0.05, z + 0.05), (x + width - 0.1, z + 0.05),
+                                   (x + 0.05, z + depth - 0.1), (x + width - 0.1, z + depth - 0.1)]):
+        box(w, f"{name}_leg{i}", material, (lx, 0, lz), (lx + 0.05, height - 0.04, lz + 0.05))
+
+
+def chair(w, name, x, z, material, back_at_high_z=True):
+    box(w, f"{name}_seat", material, (x, 0.42, z), (x + 0.45, 0.46, z + 0.45), bottom=True)
+    for i, (lx, lz) in enumerate([(x, z), (x + 0.4, z), (x, z + 0.4), (x + 0.4, z + 0.4)]):
+        box(w, f"{name}_leg{i}", material, (lx, 0, lz), (lx + 0.05, 0.42, lz + 0.05))
+    bz = z + 0.4 if back_at_high_z else z
+    box(w, f"{name}_back", material, (x, 0.46, bz), (x + 0.45, 0.95, bz + 0.05), bottom=True)
+
+
+MATERIALS = """newmtl wall
+Kd 0.72 0.70 0.66
+
+newmtl ceiling
+Kd 0.80 0.80 0.78
+
+newmtl floor
+Kd 0.45 0.32 0.20
+
+newmtl wood
+Kd 0.55 0.36 0.20
+
+newmtl fabric
+Kd 0.25 0.30 0.55
+
+newmtl shelf
+Kd 0.60 0.52 0.40
+
+newmtl partition
+Kd 0.40 0.50 0.45
+
+newmtl lamp
+Kd 0.80 0.80 0.80
+Ke 40 38 34
+
+newmtl window
+Kd 0.80 0.80 0.80
+Ke 14 16 20
+"""
+
+
+def room(out):
+    """A room like the seed paper's Fig. 2: a table, two chairs, a shelf, a ceiling light and a
+    window light, in metres."""
+    w = Writer(
+        [
+            "A room like Fig. 2 of Liu and Wu's radiosity simplification paper: a table, two chairs,",
+            "a shelf, a ceiling light and a window; metres, y up. Written by scripts/make_scenes.py.",
+        ],
+        "room.mtl",
+    )
+    size = (5.0, 3.0, 4.0)
+    shell(w, size)
+    table(w, "table", 1.8, 1.5, 1.4, 0.9, 0.75, "wood")
+    chair(w, "chair1", 2.0, 2.45, "fabric")
+    chair(w, "chair2", 2.5, 0.95, "fabric", back_at_high_z=False)
+    box(w, "shelf", "shelf", (4.55, 0, 0.6), (5.0 - 0.001, 1.8, 2.0))
+    for i, h in enumerate([0.45, 0.9, 1.35]):
+        box(w, f"shelf_board{i}", "shelf", (4.2, h, 0.6), (4.55, h + 0.03, 2.0), bottom=True)
+    lamp = [(2.2, 2.995, 1.7), (2.8, 2.995, 1.7), (2.8, 2.995, 2.3), (2.2, 2.995, 2.3)]
+    w.polygon("ceiling_light", "lamp", facing(lamp, (2.5, 0.0, 2.0)))
+    window = [(0.005, 1.0, 1.2), (0.005, 2.2, 1.2), (0.005, 2.2, 2.8), (0.005, 1.0, 2.8)]
+    w.polygon("window", "window", facing(window, (2.5, 1.5, 2.0)))
+    w.save(os.path.join(out, "room.obj"))
+    with open(os.path.join(out, "room.mtl"), "w") as f:
+        f.write("# Materials of the room and office scenes: Kd reflectance, Ke emitted exitance.\n" + MATERIALS)
+
+
+def office(out):
+    """An office like the paper's Fig. 5: desks in rows, partitions between them and several
+    ceiling lights, in metres."""
+    w = Writer(
+        [
+            "An office like Fig. 5 of Liu and Wu's radiosity simplification paper: desks, partitions",
+            "and six ceiling lights; metres, y up. Written by scripts/make_scenes.py.",
+        ],
+        "office.mtl",
+    )
+    size = (10.0, 3.0, 8.0)
+    shell(w, size)
+    for row in range(2):
+        for col in range(3):
+            x, z = 1.2 + col * 3.0, 1.5 + row * 3.5
+            table(w, f"desk{row}{col}", x, z, 1.6, 0.8, 0.74, "wood")
+            chair(w, f"chair{row}{col}", x + 0.55, z + 0.95, "fabric")
+            box(w, f"partition{row}{col}", "partition", (x - 0.1, 0, z - 0.12), (x + 1.7, 1.4, z - 0.06))
+    for i in range(3):
+        for j in range(2):
+            cx, cz = 2.0 + i * 3.0, 2.2 + j * 3.6
+            lamp = [(cx - 0.6, 2.995, cz - 0.3), (cx + 0.6, 2.995, cz - 0.3),
+                    (cx + 0.6, 2.995, cz + 0.3), (cx - 0.6, 2.995, cz + 0.3)]
+            w.polygon(f"light{i}{j}", "lamp", facing(lamp, (cx, 0.0, cz)))
+    w.save(os.path.join(out, "office.obj"))
+    with open(os.path.join(out, "office.mtl"), "w") as f:
+        f.write("# Materials of the room and office scenes: Kd reflectance, Ke emitted exitance.\n" + MATERIALS)
+
+
 if __name__ == "__main__":
     out = os.path.join("assets", "scenes")
     os.makedirs(out, exist_ok=True)
     cornell(out)
+    room(out)
+    office(out)

@@ -98,3 +98,84 @@ fn bad_scenes_are_clear_errors() {
     assert_eq!(scene.polygons.len(), 2);
     assert!(scene.notes[0].contains("non-planar"), "{:?}", scene.notes);
 }
+
+/// The bundled scenes load; the Cornell box's slightly bent left wall is the one split polygon.
+#[test]
+fn the_bundled_scenes_load() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    let cornell = Scene::load(&dir.join("cornell.obj")).unwrap();
+    assert_eq!(cornell.notes.len(), 1, "{:?}", cornell.notes);
+    assert!(cornell.notes[0].contains("left_wall"));
+    assert_eq!(cornell.polygons.len(), 17);
+    for name in ["room.obj", "office.obj"] {
+        let scene = Scene::load(&dir.join(name)).unwrap();
+        assert!(scene.notes.is_empty(), "{name}: {:?}", scene.notes);
+        assert!(scene.polygons.iter().any(|p| scene.emits(p)));
+    }
+}
+
+/// A small lit scene end to end through the command line: `--json` has the summary, the PLY reads
+/// back with a colour per vertex, and `superfaces` simplifies it.
+#[test]
+fn radiosity_and_superfaces_from_the_command_line() {
+    let dir = std::env::temp_dir().join(format!("vunify-radiosity-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("box.mtl"),
+        "newmtl white\nKd 0.6 0.6 0.6\nnewmtl lamp\nKd 0.5 0.5 0.5\nKe 10 10 10\n",
+    )
+    .unwrap();
+    let mut obj = String::from("mtllib box.mtl\nusemtl white\n");
+    for q in room(DVec3::new(2.0, 2.0, 2.0), 0) {
+        for c in &q.corners {
+            obj += &format!("v {} {} {}\n", c.x, c.y, c.z);
+        }
+    }
+    for f in 0..6 {
+        obj += &format!(
+            "f {} {} {} {}\n",
+            4 * f + 1,
+            4 * f + 2,
+            4 * f + 3,
+            4 * f + 4
+        );
+    }
+    obj += "usemtl lamp\nv 0.8 1.99 0.8\nv 0.8 1.99 1.2\nv 1.2 1.99 1.2\nv 1.2 1.99 0.8\nf 25 26 27 28\n";
+    std::fs::write(dir.join("box.obj"), obj).unwrap();
+    let lit = dir.join("lit.ply");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_vunify"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let os = |s: &str| std::ffi::OsString::from(s);
+    let j = run(&[
+        &os("radiosity"),
+        dir.join("box.obj").as_os_str(),
+        &os("-o"),
+        lit.as_os_str(),
+        &os("--element-size"),
+        &os("0.1"),
+        &os("--json"),
+    ]);
+    assert!(j["unshot"].as_f64().unwrap() < 1e-3);
+    let elements = j["elements"].as_u64().unwrap();
+    let (mesh, _) = vunify::mesh::load(&lit, &vunify::mesh::CleanOptions::default()).unwrap();
+    assert!(mesh.colors.is_some());
+    assert_eq!(mesh.triangle_count() as u64, elements);
+    let j = run(&[
+        &os("superfaces"),
+        lit.as_os_str(),
+        &os("-o"),
+        dir.join("small.ply").as_os_str(),
+        &os("--json"),
+    ]);
+    assert!(j["triangles_out"].as_u64().unwrap() < elements);
+}
