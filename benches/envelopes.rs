@@ -20,14 +20,8 @@ use vunify::simplify::envelope::{EnvelopeOptions, Method, simplify_envelope};
 
 /// The larger certified upper bound of the two directions, as a fraction of the diagonal.
 fn certified(mesh: &Mesh, other: &Mesh) -> f64 {
-    let options = CertifyOptions {
-        relative: 1e-3,
-        ..Default::default()
-    };
-    match certified_hausdorff(mesh, other, &options) {
-        Ok(c) => c.forward.upper.max(c.backward.upper),
-        Err(_) => f64::INFINITY,
-    }
+    let (forward, backward) = certified_both(mesh, other);
+    forward.max(backward)
 }
 
 /// Both certified upper bounds (input → output, output → input), as fractions of the diagonal.

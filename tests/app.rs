@@ -128,31 +128,11 @@ fn scripted_run_shows_the_model_and_the_panel() {
         .to_string(),
     )
     .unwrap();
-    let runtime = tempdir_0700();
-    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
-        .args([
-            "view",
-            concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj"),
-            "--size",
-            "1024x640",
-            "--script",
-        ])
-        .arg(&script)
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", &runtime)
-        // Settings and the tree cache go to a private home, not the user's.
-        .env("HOME", &runtime)
-        .env("XDG_CONFIG_HOME", runtime.join("config"))
-        .env("XDG_CACHE_HOME", runtime.join("cache"))
-        .output()
-        .expect("run vunify view");
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
+    view_script(
+        &x,
+        Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj")),
+        "1024x640",
+        &script,
     );
 
     let image = image::open(&shot).expect("the screenshot").to_rgba8();
@@ -257,29 +237,7 @@ fn compare_view_shows_the_methods_within_epsilon() {
         .to_string(),
     )
     .unwrap();
-    let runtime = tempdir_0700();
-    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
-        .args([
-            "view",
-            model.to_str().unwrap(),
-            "--size",
-            "1200x600",
-            "--script",
-        ])
-        .arg(&script)
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .env("HOME", &runtime)
-        .env("XDG_CONFIG_HOME", runtime.join("config"))
-        .env("XDG_CACHE_HOME", runtime.join("cache"))
-        .output()
-        .expect("run vunify view");
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    view_script(&x, &model, "1200x600", &script);
     let image = image::open(&shot).expect("the screenshot").to_rgba8();
     // The 3D view right of the 290-point panel: 4 × 2 viewports, each with light model pixels.
     let (x0, w, h) = (290, 1200 - 290, 600);
@@ -297,6 +255,32 @@ fn compare_view_shows_the_methods_within_epsilon() {
             "viewport {cell} shows only {model} model pixels"
         );
     }
+}
+
+/// Runs `vunify view MODEL --size SIZE --script SCRIPT` on the private X server, with settings and
+/// the tree cache in a private home (not the user's); fails the test unless it exits cleanly.
+fn view_script(x: &Xvfb, model: &Path, size: &str, script: &Path) {
+    let runtime = tempdir_0700();
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .arg("view")
+        .arg(model)
+        .args(["--size", size, "--script"])
+        .arg(script)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("HOME", &runtime)
+        .env("XDG_CONFIG_HOME", runtime.join("config"))
+        .env("XDG_CACHE_HOME", runtime.join("cache"))
+        .output()
+        .expect("run vunify view");
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn tempdir_0700() -> PathBuf {
