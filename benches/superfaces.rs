@@ -103,7 +103,7 @@ fn main() {
             .file_stem()
             .map_or(file.to_string(), |s| s.to_string_lossy().to_string());
         let n = mesh.triangle_count();
-        let mut row = |curve: &str, p: f64, (r, s): (f64, f64)| {
+        let row = |curve: &str, p: f64, (r, s): (f64, f64)| {
             println!(
                 "| {name} | {n} | {curve} | {p} | {:.1} % | {s:.3} |",
                 100.0 * r
