@@ -45,6 +45,7 @@ fn main() {
         fps,
         every: usize::MAX,
         compare: true,
+        full: false,
         out_dir: std::env::temp_dir().join("vunify-render-bench"),
     };
     let s = render_path(&gpu, &hierarchy, &path, &job, &mut |_, _| {}).unwrap();

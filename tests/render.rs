@@ -345,6 +345,7 @@ fn render_job_writes_its_files() {
         fps: 10.0,
         every: 5,
         compare: true,
+        full: false,
         out_dir: out.clone(),
     };
     let s = job::render_path(&gpu, &h, &path, &job, &mut |_, _| {}).unwrap();

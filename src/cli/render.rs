@@ -36,6 +36,10 @@ pub struct RenderArgs {
     /// Draw triangle edges over the surface.
     #[arg(long)]
     wireframe: bool,
+    /// Draw the full mesh, every triangle as it is, instead of the level of detail (e.g. a lit mesh
+    /// from `vunify radiosity`, whose lighting the tree's geometric error does not see).
+    #[arg(long, conflicts_with = "compare")]
+    full: bool,
     /// Screen-space test on geometry alone: leave out the shading term, which also refines where
     /// sub-pixel bumps turn normals across many pixels (fewer triangles, less faithful shading).
     #[arg(long)]
@@ -129,6 +133,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         fps: args.fps,
         every: args.every.max(1),
         compare: args.compare,
+        full: args.full,
         out_dir: args.out.clone(),
     };
     println!(

@@ -6,7 +6,7 @@ use super::headless::{Gpu, OFFSCREEN_FORMAT, Offscreen};
 use super::image_diff::{self, Comparison};
 use super::renderer::{DrawOptions, Renderer};
 use crate::camera_path::CameraPath;
-use crate::refine::{Camera, Front, Hierarchy, Refiner, Settings};
+use crate::refine::{Camera, FrameStats, Front, Hierarchy, Refiner, Settings};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -23,6 +23,8 @@ pub struct RenderJob {
     pub every: usize,
     /// Also render the full mesh each frame and measure the image error.
     pub compare: bool,
+    /// Draw the full mesh instead of the level of detail (no refinement).
+    pub full: bool,
     pub out_dir: PathBuf,
 }
 
@@ -127,6 +129,17 @@ pub fn render_path(
         full_triangles = all.triangle_count();
         full = Some(r);
     }
+    // With `full`, every leaf is drawn and nothing refines.
+    let fixed = job.full.then(|| {
+        let mut all = Front::new(h);
+        all.refine_all(h);
+        lod.set_triangles(device, queue, all.indices());
+        FrameStats {
+            triangles: all.triangle_count() as u32,
+            active_vertices: h.leaf_count,
+            ..Default::default()
+        }
+    });
     let mut refiner = Refiner::new(h, job.settings);
     let mut records = Vec::with_capacity(frames);
     let mut kept = Vec::new();
@@ -140,11 +153,16 @@ pub fn render_path(
     for i in 0..frames {
         let t = i as f32 / job.fps;
         let camera = camera_at(path, t, target.size, h.diagonal);
-        let stats = refiner.update(h, &camera);
-        let t0 = Instant::now();
-        let (front, moved) = refiner.output();
-        let upload = lod.upload(device, queue, front, moved);
-        let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let (stats, upload_bytes, upload_ms) = match fixed {
+            Some(stats) => (stats, 0, 0.0),
+            None => {
+                let stats = refiner.update(h, &camera);
+                let t0 = Instant::now();
+                let (front, moved) = refiner.output();
+                let upload = lod.upload(device, queue, front, moved);
+                (stats, upload.bytes, t0.elapsed().as_secs_f64() * 1e3)
+            }
+        };
         let t0 = Instant::now();
         let (image, gpu_ms) = frame(gpu, &mut lod, &target, &camera, &job.draw)?;
         let frame_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -157,7 +175,7 @@ pub fn render_path(
             unifies: stats.unifies,
             refine_ms: stats.refine_secs * 1e3,
             upload_ms,
-            upload_bytes: upload.bytes,
+            upload_bytes,
             gpu_ms,
             frame_ms,
             ..Default::default()
