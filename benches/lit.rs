@@ -1,0 +1,121 @@
+//! Simplifying a lit mesh at equal triangle counts (issue 22 §5): the seed paper's superfaces
+//! against meshoptimizer's `simplify_with_attributes` (colour weight 1, its documented default) and
+//! against the vertex tree's build-order cut, each drawn whole (`--full`, colours unlit) from one
+//! camera and compared with the full lit mesh: PSNR, and the share of pixels off by more than 2/255.
+//!
+//!     vunify radiosity assets/scenes/room.obj -o room.ply
+//!     cargo bench --bench lit -- --lit room.ply --camera room-camera.json --settings 0.1:2,0.8:50
+
+mod common;
+
+use std::path::Path;
+use vunify::camera_path::CameraPath;
+use vunify::mesh::{CleanOptions, Mesh, load};
+use vunify::radiosity::superfaces::{SuperfaceOptions, simplify_superfaces};
+use vunify::refine::{Front, Hierarchy};
+use vunify::render::headless::{Gpu, OFFSCREEN_FORMAT, Offscreen};
+use vunify::render::job::{camera_at, frame};
+use vunify::render::renderer::{ColorBy, DrawOptions, Renderer};
+use vunify::vtree::{self, BuildOptions};
+
+const SIZE: [u32; 2] = [640, 480];
+
+/// meshoptimizer with the vertex colours as attributes (weight 1) to `target` triangles.
+fn meshopt_with_colours(mesh: &Mesh, target: usize) -> Mesh {
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
+        .expect("positions");
+    let colours: Vec<f32> = mesh
+        .colors
+        .as_ref()
+        .expect("a lit mesh")
+        .iter()
+        .flat_map(|c| c.to_array())
+        .collect();
+    let out = meshopt::simplify_with_attributes_and_locks(
+        &indices,
+        &adapter,
+        &colours,
+        &[1.0, 1.0, 1.0],
+        12,
+        &vec![false; mesh.positions.len()],
+        target * 3,
+        f32::MAX,
+        meshopt::SimplifyOptions::empty(),
+        None,
+    );
+    let triangles = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let mut m = Mesh::from_triangles(mesh.positions.clone(), triangles);
+    m.colors = mesh.colors.clone();
+    m
+}
+
+/// The mesh drawn whole from the camera.
+fn picture(gpu: &Gpu, mesh: &Mesh, camera_path: &CameraPath, diagonal: f32) -> image::RgbaImage {
+    let (tree, _) = vtree::build(mesh, &BuildOptions::default(), &mut |_, _| {}).expect("builds");
+    let h = Hierarchy::new(&tree);
+    let mut all = Front::new(&h);
+    all.refine_all(&h);
+    let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
+    renderer.set_triangles(&gpu.device, &gpu.queue, all.indices());
+    let target = Offscreen::new(&gpu.device, SIZE);
+    let camera = camera_at(camera_path, 0.0, SIZE, diagonal);
+    let draw = DrawOptions {
+        color_by: ColorBy::Baked,
+        ..Default::default()
+    };
+    frame(gpu, &mut renderer, &target, &camera, &draw)
+        .expect("renders")
+        .0
+}
+
+/// PSNR (dB) and the share of pixels with a channel off by more than 2/255.
+fn judge(a: &image::RgbaImage, b: &image::RgbaImage) -> (f64, f64) {
+    let psnr = vunify::render::image_diff::compare(a, b).psnr_db;
+    let off = a
+        .pixels()
+        .zip(b.pixels())
+        .filter(|(p, q)| (0..3).any(|c| p[c].abs_diff(q[c]) > 2))
+        .count();
+    (psnr, off as f64 / (a.width() * a.height()) as f64)
+}
+
+fn main() {
+    let lit_file = common::arg("--lit", "room.ply");
+    let camera_file = common::arg("--camera", "room-camera.json");
+    let settings = common::arg("--settings", "0.1:2,0.8:50");
+    let (lit, _) = load(Path::new(&lit_file), &CleanOptions::default()).expect("the lit mesh");
+    let camera_path = CameraPath::load(Path::new(&camera_file)).expect("the camera");
+    let gpu = Gpu::headless().expect("a GPU (lavapipe)");
+    let diagonal = lit.diagonal();
+    let reference = picture(&gpu, &lit, &camera_path, diagonal);
+    let (tree, _) = vtree::build(&lit, &BuildOptions::default(), &mut |_, _| {}).expect("builds");
+    println!("{lit_file}: {} triangles", lit.triangle_count());
+    println!("| (ε, δ) | method | triangles | PSNR | pixels off > 2/255 |");
+    println!("|---|---|---:|---:|---:|");
+    for s in settings.split(',') {
+        let (e, d) = s.split_once(':').expect("ε:δ");
+        let options = SuperfaceOptions {
+            epsilon: e.parse().expect("ε"),
+            delta: d.parse().expect("δ"),
+            distance: 0.0,
+        };
+        let (ours, _) = simplify_superfaces(&lit, &options).expect("superfaces");
+        let n = ours.triangle_count();
+        let peer = meshopt_with_colours(&lit, n);
+        let cut = vtree::cut_at_triangles(&tree, n as u32).mesh;
+        for (name, mesh) in [
+            ("superfaces", &ours),
+            ("meshopt (colour 1)", &peer),
+            ("vertex tree", &cut),
+        ] {
+            let (psnr, off) = judge(&picture(&gpu, mesh, &camera_path, diagonal), &reference);
+            println!(
+                "| ({e}, {d}) | {name} | {} | {psnr:.2} dB | {:.1} % |",
+                mesh.triangle_count(),
+                100.0 * off
+            );
+        }
+    }
+}
