@@ -14,7 +14,7 @@ mod common;
 
 use std::time::Instant;
 use vunify::measure::{CertifyOptions, certified_hausdorff};
-use vunify::mesh::{CleanOptions, Mesh, load};
+use vunify::mesh::Mesh;
 use vunify::simplify::bounded::{BoundedOptions, simplify_bounded};
 use vunify::simplify::envelope::{EnvelopeOptions, Method, simplify_envelope};
 
@@ -38,12 +38,8 @@ fn certified_both(mesh: &Mesh, other: &Mesh) -> (f64, f64) {
 
 fn paper_table(models: &str, epsilons: &str) {
     for name in models.split(',') {
-        let (mesh, _) = match load(&common::model_file(name), &CleanOptions::default()) {
-            Ok(m) => m,
-            Err(e) => {
-                eprintln!("skipping {name}: {e}");
-                continue;
-            }
+        let Some(mesh) = common::model_or_skip(name) else {
+            continue;
         };
         println!("\n{name} ({} triangles)\n", mesh.triangle_count());
         println!("| ε | method | triangles | seconds | input → output | output → input |");
@@ -107,12 +103,8 @@ fn main() {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
     for name in models.split(',') {
-        let (mesh, _) = match load(&common::model_file(name), &CleanOptions::default()) {
-            Ok(m) => m,
-            Err(e) => {
-                eprintln!("skipping {name}: {e}");
-                continue;
-            }
+        let Some(mesh) = common::model_or_skip(name) else {
+            continue;
         };
         let t0 = Instant::now();
         let options = BoundedOptions {

@@ -191,6 +191,13 @@ Ke 14 16 20
 """
 
 
+def save_furnished(w, out, name):
+    """Writes NAME.obj and NAME.mtl (the materials the room and the office share)."""
+    w.save(os.path.join(out, f"{name}.obj"))
+    with open(os.path.join(out, f"{name}.mtl"), "w") as f:
+        f.write("# Materials of the room and office scenes: Kd reflectance, Ke emitted exitance.\n" + MATERIALS)
+
+
 def room(out):
     """A room like the seed paper's Fig. 2: a table, two chairs, a shelf, a ceiling light and a
     window light, in metres."""
@@ -213,9 +220,7 @@ def room(out):
     w.polygon("ceiling_light", "lamp", facing(lamp, (2.5, 0.0, 2.0)))
     window = [(0.005, 1.0, 1.2), (0.005, 2.2, 1.2), (0.005, 2.2, 2.8), (0.005, 1.0, 2.8)]
     w.polygon("window", "window", facing(window, (2.5, 1.5, 2.0)))
-    w.save(os.path.join(out, "room.obj"))
-    with open(os.path.join(out, "room.mtl"), "w") as f:
-        f.write("# Materials of the room and office scenes: Kd reflectance, Ke emitted exitance.\n" + MATERIALS)
+    save_furnished(w, out, "room")
 
 
 def office(out):
@@ -242,9 +247,7 @@ def office(out):
             lamp = [(cx - 0.6, 2.995, cz - 0.3), (cx + 0.6, 2.995, cz - 0.3),
                     (cx + 0.6, 2.995, cz + 0.3), (cx - 0.6, 2.995, cz + 0.3)]
             w.polygon(f"light{i}{j}", "lamp", facing(lamp, (cx, 0.0, cz)))
-    w.save(os.path.join(out, "office.obj"))
-    with open(os.path.join(out, "office.mtl"), "w") as f:
-        f.write("# Materials of the room and office scenes: Kd reflectance, Ke emitted exitance.\n" + MATERIALS)
+    save_furnished(w, out, "office")
 
 
 if __name__ == "__main__":

@@ -31,6 +31,17 @@ pub fn models_dir() -> PathBuf {
     )
 }
 
+/// The model named on the command line, or `None` after saying why it cannot be read.
+pub fn model_or_skip(name: &str) -> Option<vunify::mesh::Mesh> {
+    match vunify::mesh::load(&model_file(name), &vunify::mesh::CleanOptions::default()) {
+        Ok((mesh, _)) => Some(mesh),
+        Err(e) => {
+            eprintln!("skipping {name}: {e}");
+            None
+        }
+    }
+}
+
 /// meshoptimizer's edge collapse (`meshopt::simplify`) to `target` triangles, positions only, no
 /// error limit; the result keeps the input's vertex array.
 pub fn meshopt_simplify(mesh: &vunify::mesh::Mesh, target: usize) -> vunify::mesh::Mesh {
