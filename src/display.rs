@@ -4,7 +4,8 @@
 /// How surfaces are coloured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum ColorBy {
-    /// The model's vertex colours when it has them, else a neutral grey; lit.
+    /// The model's vertex colours when it has them, else a neutral grey; lit — except a lit mesh
+    /// from `vunify radiosity` (one-sided, with colours), drawn as [`ColorBy::Baked`].
     #[default]
     Auto,
     /// Neutral grey, lit.

@@ -333,3 +333,78 @@ fn real_models_build_to_one_root() {
         );
     }
 }
+
+/// Colour in the error (lit meshes): a flat 8 × 8 grid, black where x < 4 and white from x = 4 on,
+///
+/// ```text
+///   y ┌───────┬───────┐
+///     │ black │ white │   flat: inside the square every merge is free in shape
+///     └───────┴───────┘ x
+///     0       4       8
+/// ```
+///
+/// With the default colour weight, each node's error covers the colour of every leaf below it
+/// (`weight · diagonal · largest channel difference`), so the runtime refines wherever the colours
+/// it would blend differ; and the halves merge within themselves before across the edge (Ward's
+/// criterion in the price), where from shape alone many merges cross it.
+#[test]
+fn colour_counts_in_the_error() {
+    let mut mesh = grid(8, 8, |_, _| 0.0);
+    mesh.colors = Some(
+        mesh.positions
+            .iter()
+            .map(|p| if p.x < 4.0 { Vec3::ZERO } else { Vec3::ONE })
+            .collect(),
+    );
+    // Merges that join black and white leaves; checks each node's error against its leaves' colours
+    // when `color_weight` is set.
+    let crossings = |color_weight: f32| {
+        let options = BuildOptions {
+            color_weight,
+            ..Default::default()
+        };
+        let tree = vtree::build(&mesh, &options, &mut |_, _| {}).unwrap().0;
+        let scale = color_weight * mesh.diagonal();
+        let n = tree.leaf_count as usize;
+        // Each node's leaves, bottom-up (children come before parents).
+        let mut leaves: Vec<Vec<usize>> = (0..tree.nodes.len())
+            .map(|u| if u < n { vec![u] } else { Vec::new() })
+            .collect();
+        let mut mixed = 0;
+        for u in n..tree.nodes.len() {
+            let [a, b] = tree.nodes[u].children;
+            let joined = [leaves[a as usize].clone(), leaves[b as usize].clone()].concat();
+            let c = Vec3::from_array(tree.nodes[u].color);
+            let worst = joined
+                .iter()
+                .map(|&l| {
+                    (Vec3::from_array(tree.nodes[l].color) - c)
+                        .abs()
+                        .max_element()
+                })
+                .fold(0.0f32, f32::max);
+            assert!(
+                tree.nodes[u].error >= scale * worst * (1.0 - 1e-5),
+                "node {u}: error {} below its colour deviation {}",
+                tree.nodes[u].error,
+                scale * worst
+            );
+            let black = joined
+                .iter()
+                .filter(|&&l| tree.nodes[l].color[0] == 0.0)
+                .count();
+            mixed += usize::from(black > 0 && black < joined.len());
+            leaves[u] = joined;
+        }
+        mixed
+    };
+    let (with, without) = (
+        crossings(BuildOptions::default().color_weight),
+        crossings(0.0),
+    );
+    // 81 leaves, 80 merges: with colour only the last few, near the root, join black and white.
+    assert!(
+        with <= 8 && without > 2 * with,
+        "{with} merges across the colour edge, {without} from shape alone"
+    );
+}

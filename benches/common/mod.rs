@@ -66,6 +66,7 @@ pub fn meshopt_simplify(mesh: &vunify::mesh::Mesh, target: usize) -> vunify::mes
         colors: None,
         normals: None,
         unreferenced_vertices: 0,
+        one_sided: false,
         ..mesh.clone()
     }
 }

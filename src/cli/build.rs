@@ -40,6 +40,10 @@ pub struct BuildArgs {
     /// Hybrid metric: weight w2 of the feature error (Tables 1 and 2).
     #[arg(long, default_value_t = HybridWeights::default().feature)]
     w_feature: f32,
+    /// For meshes with vertex colours: a full channel's colour difference counts like a deviation of
+    /// this many bounding-box diagonals, in the merge order and in the nodes' errors (0: shape only).
+    #[arg(long, default_value_t = BuildOptions::default().color_weight)]
+    color_weight: f32,
     /// Keep vertices with identical positions apart (welding is on by default).
     #[arg(long)]
     no_weld: bool,
@@ -62,7 +66,14 @@ impl BuildArgs {
                 self.sharp_angle
             );
         }
+        if !(self.color_weight >= 0.0 && self.color_weight.is_finite()) {
+            bail!(
+                "--color-weight must be a non-negative number, got {}",
+                self.color_weight
+            );
+        }
         Ok(BuildOptions {
+            color_weight: self.color_weight,
             metric: self.metric,
             schedule: self.schedule,
             pair_distance: self.pair_distance,

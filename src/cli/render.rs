@@ -48,8 +48,8 @@ pub struct RenderArgs {
     /// the surface drawn more than τ pixels from where it belongs, with many more triangles.
     #[arg(long)]
     strict: bool,
-    /// Surface colours: auto (vertex colours if any, else grey; lit), shaded, baked (vertex colours
-    /// unlit, for lit meshes from `vunify radiosity`), depth (tree depth) or error (projected error:
+    /// Surface colours: auto (baked for lit meshes from `vunify radiosity`, else vertex colours if
+    /// any or grey, lit), shaded, baked (vertex colours unlit), depth (tree depth) or error (projected error:
     /// blue 0, green τ, red 2τ).
     #[arg(long, value_enum, default_value = "auto")]
     color_by: ColorChoice,

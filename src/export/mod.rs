@@ -110,6 +110,13 @@ pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
         "comment written by vunify {}",
         env!("CARGO_PKG_VERSION")
     );
+    if mesh.one_sided {
+        let _ = writeln!(
+            header,
+            "comment {}: faces are seen from the side they wind counter-clockwise around",
+            crate::mesh::ONE_SIDED_COMMENT
+        );
+    }
     let _ = writeln!(header, "element vertex {}", mesh.positions.len());
     header.push_str("property float x\nproperty float y\nproperty float z\n");
     if mesh.colors.is_some() {

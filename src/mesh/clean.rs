@@ -120,6 +120,7 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
         triangles,
         parts,
         unreferenced_vertices: 0,
+        one_sided: mesh.one_sided,
     };
     debug_assert!(out.check().is_ok());
     (out, report)

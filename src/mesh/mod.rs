@@ -37,7 +37,15 @@ pub struct Mesh {
     /// Vertices of the file that no face uses and that the reader left out before `positions` (tobj
     /// keeps only referenced vertices); [`clean`] counts them with the unused ones it drops itself.
     pub unreferenced_vertices: usize,
+    /// The faces are seen only from the side they wind counter-clockwise around, and the winding is
+    /// meant (lit meshes from `vunify radiosity`, seen from inside a room): the runtime's back-face
+    /// test takes it as it is instead of guessing from the sign of the volume. PLY files say so with
+    /// a header comment starting with [`ONE_SIDED_COMMENT`].
+    pub one_sided: bool,
 }
+
+/// The PLY header comment that marks a [`Mesh::one_sided`] mesh.
+pub const ONE_SIDED_COMMENT: &str = "one-sided";
 
 impl Mesh {
     pub fn vertex_count(&self) -> usize {
@@ -81,6 +89,7 @@ impl Mesh {
             triangles,
             parts,
             unreferenced_vertices: 0,
+            one_sided: false,
         }
     }
 

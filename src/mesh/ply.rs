@@ -256,6 +256,10 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     Ok(Mesh {
         colors: has_colors.then_some(colors),
         normals: has_normals.then_some(normals),
+        one_sided: header
+            .comments
+            .iter()
+            .any(|c| c.trim_start().starts_with(crate::mesh::ONE_SIDED_COMMENT)),
         ..Mesh::from_triangles(positions, triangles)
     })
 }

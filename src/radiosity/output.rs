@@ -71,6 +71,11 @@ pub fn write(solution: &Solution, emitting: &[bool], path: &Path) -> std::io::Re
         let mut h = String::new();
         h.push_str("ply\nformat binary_little_endian 1.0\n");
         let _ = writeln!(h, "comment lit by vunify radiosity");
+        let _ = writeln!(
+            h,
+            "comment {}: faces are lit and seen on the side they wind counter-clockwise around",
+            crate::mesh::ONE_SIDED_COMMENT
+        );
         let _ = writeln!(h, "comment exposure {exposure}");
         let _ = writeln!(h, "element vertex {}", positions.len());
         for p in ["x", "y", "z", "radiosity_r", "radiosity_g", "radiosity_b"] {

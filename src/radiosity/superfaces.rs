@@ -572,5 +572,6 @@ fn compact(mesh: &Mesh, triangles: Vec<[u32; 3]>) -> Mesh {
         .collect();
     let mut out = Mesh::from_triangles(positions, triangles);
     out.colors = Some(colours);
+    out.one_sided = mesh.one_sided;
     out
 }

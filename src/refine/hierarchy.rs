@@ -37,6 +37,9 @@ pub struct Hierarchy {
     /// The input's faces wind clockwise seen from outside (negative signed volume, like the horse
     /// model): cones were flipped so that the normal test still culls the far side.
     pub inward: bool,
+    /// The model's winding is meant (see [`crate::mesh::Mesh::one_sided`]): a lit mesh, whose
+    /// colours are drawn unlit by default.
+    pub one_sided: bool,
     pub diagonal: f32,
 }
 
@@ -150,7 +153,9 @@ impl Hierarchy {
         };
 
         // d(t) and the rotation that puts the outside corner last.
-        let inward = signed_volume(&tree.nodes, &tree.triangles) < 0.0;
+        // A one-sided mesh (a lit room, seen from inside) means its winding even when its volume is
+        // negative; anything else seen from outside is taken to be wound inward when it is.
+        let inward = !tree.one_sided && signed_volume(&tree.nodes, &tree.triangles) < 0.0;
         let mut keyed: Vec<(u32, [u32; 3])> = tree
             .triangles
             .iter()
@@ -213,6 +218,7 @@ impl Hierarchy {
             internal: internal_nodes,
             triangles,
             inward,
+            one_sided: tree.one_sided,
             diagonal: tree.diagonal(),
         }
     }

@@ -72,6 +72,8 @@ struct Model {
     colors: wgpu::Buffer,
     debug: wgpu::Buffer,
     has_colors: bool,
+    /// A one-sided mesh with colours: lighting baked in, drawn unlit by `ColorBy::Auto`.
+    baked: bool,
     indices: Indices,
     triangles: u32,
 }
@@ -317,6 +319,7 @@ impl Renderer {
             colors: vertex("colors", bytemuck::cast_slice(&colors)),
             debug: vertex("debug", bytemuck::cast_slice(&debug)),
             has_colors,
+            baked: has_colors && h.one_sided,
             indices: Indices::new(device, self.chunk_triangles),
             triangles: 0,
         };
@@ -393,7 +396,9 @@ impl Renderer {
         // A headlight, raised and to the left, so that shapes read from any side.
         let light = (-forward + camera.orientation * Vec3::new(-0.4, 0.6, 0.0)).normalize();
         let has_colors = self.model.as_ref().is_some_and(|m| m.has_colors);
+        let baked = self.model.as_ref().is_some_and(|m| m.baked);
         let mode = match options.color_by {
+            ColorBy::Auto if baked => 4,
             ColorBy::Auto if has_colors => 1,
             ColorBy::Auto | ColorBy::Shaded => 0,
             ColorBy::Depth => 2,

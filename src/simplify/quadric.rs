@@ -155,6 +155,11 @@ impl LocalQuadric {
         }
     }
 
+    /// Sum of the plane weights (the area the quadric stands for).
+    pub fn weight(&self) -> f32 {
+        self.weight
+    }
+
     /// Back in `f64`, still about the vertex.
     pub fn get(&self) -> Quadric {
         let [a00, a01, a02, a11, a12, a22] = self.a.map(f64::from);

@@ -79,6 +79,7 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
         }],
         triangles,
         unreferenced_vertices: 0,
+        one_sided: tree.one_sided,
     };
     Cut {
         nodes,

@@ -19,6 +19,7 @@ const META_LEN: usize = 32;
 const NODE_LEN: u64 = std::mem::size_of::<Node>() as u64;
 const FLAG_COLORS: u32 = 1;
 const FLAG_NORMALS: u32 = 2;
+const FLAG_ONE_SIDED: u32 = 4;
 
 const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
 
@@ -50,7 +51,8 @@ fn crc(bytes: &[u8]) -> u32 {
 pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
     let mut meta = Vec::with_capacity(META_LEN);
     let flags = if tree.has_colors { FLAG_COLORS } else { 0 }
-        | if tree.has_normals { FLAG_NORMALS } else { 0 };
+        | if tree.has_normals { FLAG_NORMALS } else { 0 }
+        | if tree.one_sided { FLAG_ONE_SIDED } else { 0 };
     for x in [
         tree.leaf_count,
         tree.nodes.len() as u32,
@@ -184,6 +186,7 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         metric,
         has_colors: flags & FLAG_COLORS != 0,
         has_normals: flags & FLAG_NORMALS != 0,
+        one_sided: flags & FLAG_ONE_SIDED != 0,
         parts: part_list(part_bytes, parts, &fail)?,
     };
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;

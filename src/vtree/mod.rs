@@ -81,6 +81,8 @@ pub struct VertexTree {
     pub metric: Metric,
     pub has_colors: bool,
     pub has_normals: bool,
+    /// From [`crate::mesh::Mesh::one_sided`]: the winding is meant, never flipped.
+    pub one_sided: bool,
     pub parts: Vec<PartInfo>,
 }
 

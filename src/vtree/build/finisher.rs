@@ -183,7 +183,14 @@ impl FinishBatch {
             }
             let (fan_end, extra_end) = (self.fan_ends[i], self.extra_ends[i]);
             let fan = &self.fans[fan_start as usize..fan_end as usize];
-            out.kept[i] = finish_node(&mut node, view.done, &merged, fan, view.leaves);
+            out.kept[i] = finish_node(
+                &mut node,
+                view.done,
+                &merged,
+                fan,
+                view.leaves,
+                view.pricing.color_scale,
+            );
             out.nodes[i] = node;
             let end = PairEnd::merged(
                 &view.ends[merged.slot as usize],

@@ -71,6 +71,12 @@ pub struct BuildOptions {
     pub sharp_angle_deg: f32,
     /// Seed 001's w1 and w2, used by `Metric::Hybrid`.
     pub hybrid: HybridWeights,
+    /// How much vertex colour counts, for meshes that have it (lit meshes, scans with colour): a
+    /// colour difference of one full channel costs like a deviation of this many bounding-box
+    /// diagonals, both in the merge order and in each node's error, so the runtime's screen-space
+    /// test keeps colour edges (shadows) as it keeps shape. Default 0.1 (see docs/VERTEX_TREE.md);
+    /// 0 builds from shape alone.
+    pub color_weight: f32,
 }
 
 impl Default for BuildOptions {
@@ -82,6 +88,7 @@ impl Default for BuildOptions {
             max_pairs_per_vertex: 2,
             sharp_angle_deg: 120.0,
             hybrid: HybridWeights::default(),
+            color_weight: 0.15,
         }
     }
 }
@@ -159,6 +166,8 @@ struct Builder<'m> {
     metric: Metric,
     hybrid: HybridWeights,
     mean_edge_length: f32,
+    /// [`Pricing::color_scale`]: 0 for a mesh without colours.
+    color_scale: f32,
     stats: BuildStats,
     removed: Vec<(u32, crate::simplify::collapse::Vanish)>,
     /// Error samples of each live slot (input vertex ids, `NONE`-padded).
@@ -171,6 +180,7 @@ impl Builder<'_> {
             metric: self.metric,
             hybrid: self.hybrid,
             mean_edge_length: self.mean_edge_length,
+            color_scale: self.color_scale,
         }
     }
 
@@ -197,8 +207,14 @@ impl Builder<'_> {
         );
         let mut fan = Vec::new();
         fan_of(&self.collapser, survivor, &mut fan);
-        self.samples[survivor as usize] =
-            finish_node(&mut node, &nodes, &merged, &fan, &self.mesh.positions);
+        self.samples[survivor as usize] = finish_node(
+            &mut node,
+            &nodes,
+            &merged,
+            &fan,
+            &self.mesh.positions,
+            self.color_scale,
+        );
         for c in node.children {
             nodes[c as usize].parent = u;
         }
@@ -418,7 +434,8 @@ fn build_unit(
         .par_iter()
         .zip(&vertex_weight)
         .zip(&mesh.positions)
-        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
+        .enumerate()
+        .map(|(v, ((q, &w), &p))| PairEnd::new(q, p, w, Vec3::from_array(nodes[v].color)))
         .collect();
     drop((quadrics, vertex_weight));
 
@@ -439,6 +456,10 @@ fn build_unit(
         metric: options.metric,
         hybrid: options.hybrid,
         mean_edge_length,
+        color_scale: match mesh.colors {
+            Some(_) => options.color_weight.max(0.0) * diagonal,
+            None => 0.0,
+        },
         stats,
         removed: Vec::new(),
         samples: (0..n as u32)
@@ -499,6 +520,7 @@ impl Builder<'_> {
             metric: options.metric,
             has_colors: mesh.colors.is_some(),
             has_normals: mesh.normals.is_some(),
+            one_sided: mesh.one_sided,
             parts: mesh
                 .parts
                 .iter()

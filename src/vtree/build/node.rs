@@ -78,12 +78,14 @@ pub(super) fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle
 
 /// Colour, normal, bounding sphere, normal cone and error of a new node, from its (finished)
 /// children and `fan`, the triangles around its slot right after the merge ([`fan_of`]).
+/// `color_scale` is the length a full channel's colour difference counts as (0: shape only).
 pub(super) fn finish_node(
     node: &mut Node,
     done: &[Node],
     merged: &Merged,
     fan: &[FanTriangle],
     leaves: &[Vec3],
+    color_scale: f32,
 ) -> Samples {
     let Merged {
         blend, ref pending, ..
@@ -150,8 +152,17 @@ pub(super) fn finish_node(
     // Each child's own vertex, on top of the child's error: its surface was that close to the
     // input, and its vertex's distance to the new fan is where a merge usually strays most. Summed
     // along a chain this grows like a geometric series, a small factor over the true deviation.
+    // Colour the same way: a child's error covers its leaves' colour deviation from the child's
+    // colour (times the scale), so adding the child's colour change bounds the node's, leaf by leaf
+    // (the triangle inequality, in the largest channel).
     for (k, child) in [ns, nt].into_iter().enumerate() {
-        node.error = node.error.max(child.error + distance[pending.len() + k]);
+        let recolored = (Vec3::from_array(child.color) - Vec3::from_array(node.color))
+            .abs()
+            .max_element();
+        node.error = node
+            .error
+            .max(child.error + distance[pending.len() + k])
+            .max(child.error + color_scale * recolored);
     }
     let mut kept = [NONE; SAMPLES];
     for (k, &(_, q)) in kept.iter_mut().zip(&scored) {
