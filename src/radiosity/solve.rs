@@ -456,6 +456,71 @@ mod tests {
         );
     }
 
+    /// Reciprocity, `A_i F_ij = A_j F_ji`, on random pairs of triangles facing each other, each
+    /// wholly in front of the other: the point-to-triangle factor integrated over each triangle (the
+    /// midpoint rule on 24² sub-triangles) agrees both ways within 2 %.
+    #[test]
+    fn reciprocity_on_random_pairs() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let normal = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+        let in_front = |t: &[DVec3; 3], of: &[DVec3; 3]| {
+            let n = normal(of);
+            t.iter().all(|p| n.dot(*p - of[0]) > 0.05)
+        };
+        // ∫ over `r` of the factor to `s`, as the midpoint rule on k² sub-triangles.
+        let integral = |r: &[DVec3; 3], s: &[DVec3; 3]| {
+            let k = 24;
+            let n = normal(r);
+            let area = 0.5 * (r[1] - r[0]).cross(r[2] - r[0]).length() / (k * k) as f64;
+            let mut sum = 0.0;
+            for i in 0..k {
+                for j in 0..k - i {
+                    // The upright sub-triangle at (i, j) and, but for the last in its row, the
+                    // inverted one beside it: their centroids in barycentric steps of 1/k.
+                    let mut centroids = vec![(i as f64 + 1.0 / 3.0, j as f64 + 1.0 / 3.0)];
+                    if j + i + 1 < k {
+                        centroids.push((i as f64 + 2.0 / 3.0, j as f64 + 2.0 / 3.0));
+                    }
+                    for (u, v) in centroids {
+                        let x =
+                            r[0] + (r[1] - r[0]) * (u / k as f64) + (r[2] - r[0]) * (v / k as f64);
+                        sum += point_to_triangle(x, n, *s) * area;
+                    }
+                }
+            }
+            sum
+        };
+        let mut pairs = 0;
+        while pairs < 25 {
+            let mut corner = |y: f64| DVec3::new(2.0 * random(), y + random(), 2.0 * random());
+            let mut a = [corner(0.0), corner(0.0), corner(0.0)];
+            let mut b = [corner(1.5), corner(1.5), corner(1.5)];
+            // Face each other: a's normal towards b, b's towards a.
+            if normal(&a).dot(b[0] - a[0]) < 0.0 {
+                a.swap(1, 2);
+            }
+            if normal(&b).dot(a[0] - b[0]) < 0.0 {
+                b.swap(1, 2);
+            }
+            if !(in_front(&a, &b) && in_front(&b, &a)) {
+                continue;
+            }
+            pairs += 1;
+            let (ab, ba) = (integral(&a, &b), integral(&b, &a));
+            assert!(ab > 0.0);
+            assert!(
+                (ab - ba).abs() <= 0.02 * ab.max(ba),
+                "A_a F_ab = {ab}, A_b F_ba = {ba}"
+            );
+        }
+    }
+
     /// Two parallel unit squares at distance 1: the area-to-area form factor is 0.1998 (closed
     /// form); averaging the point-to-square factor over the receiver gives it within 1 %.
     #[test]
