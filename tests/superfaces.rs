@@ -135,3 +135,128 @@ fn runs_are_repeatable() {
         assert_eq!(a.positions, b.positions);
     }
 }
+
+/// The Cornell box lit coarsely (a few seconds), as `vunify radiosity` writes it and reads it back.
+fn lit_cornell() -> Mesh {
+    use vunify::radiosity::{RadiosityOptions, Scene, solve};
+    let dir = std::env::temp_dir().join(format!("vunify-superfaces-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = Scene::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/cornell.obj"),
+    )
+    .unwrap();
+    let options = RadiosityOptions {
+        unshot: 0.02,
+        element_size: 0.05,
+        min_element_size: 0.01,
+        ..Default::default()
+    };
+    let solution = solve(&scene, &options, &mut |_, _| {});
+    let emitting: Vec<bool> = scene.polygons.iter().map(|p| scene.emits(p)).collect();
+    let path = dir.join("cornell.ply");
+    vunify::radiosity::output::write(&solution, &emitting, &path).unwrap();
+    let mesh = vunify::mesh::load(&path, &Default::default()).unwrap().0;
+    let _ = std::fs::remove_dir_all(&dir);
+    mesh
+}
+
+/// On a real lit mesh (the Cornell box) at the paper's settings: every superface is planar (its
+/// triangles' normals agree and its corners lie on one plane, within the merge's tolerances); the
+/// output's area is the input's (it was 10 % more on the right wall before ear clipping took exact
+/// orientations and cut slivers last); and every vertex that left a superface's boundary lies on an output
+/// edge whose ends' colours, interpolated to it, are within δ (0–255) of its own.
+#[test]
+fn the_lit_cornell_box_keeps_the_papers_promises() {
+    let mesh = lit_cornell();
+    let colours = mesh.colors.as_ref().unwrap();
+    let diagonal = mesh.diagonal() as f64;
+    for (epsilon, delta) in [(0.1, 2.0), (0.8, 50.0)] {
+        assert_no_t_junctions(&mesh);
+        let owner = superfaces(&mesh, epsilon).unwrap();
+        let count = owner.iter().max().map_or(0, |&s| s as usize + 1);
+        let normal = |t: [u32; 3]| {
+            let [a, b, c] = t.map(|v| mesh.positions[v as usize].as_dvec3());
+            (b - a).cross(c - a).normalize()
+        };
+        let mut first = vec![None; count];
+        for (t, &s) in mesh.triangles.iter().zip(&owner) {
+            let (n, p) = (normal(*t), mesh.positions[t[0] as usize].as_dvec3());
+            let &mut (n0, p0) = first[s as usize].get_or_insert((n, p));
+            assert!(n.dot(n0) > 1.0 - 1e-5, "superface {s} is not planar");
+            for v in t {
+                let off = (mesh.positions[*v as usize].as_dvec3() - p0).dot(n0).abs();
+                assert!(
+                    off <= 1e-5 * diagonal,
+                    "superface {s}: a corner {off} off its plane"
+                );
+            }
+        }
+
+        let (out, stats) = simplify_superfaces(&mesh, &options(epsilon, delta)).unwrap();
+        assert!(stats.triangles_out < stats.triangles_in / 3, "{stats:?}");
+        assert!(
+            (area(&out) - area(&mesh)).abs() <= 1e-6 * area(&mesh),
+            "(ε, δ) = ({epsilon}, {delta}): area {} of {}",
+            area(&out),
+            area(&mesh)
+        );
+        // Not asserted here yet: a few output triangles have no area (three corners of a straight
+        // run of f32-rounded boundary vertices, where a ring keeps only those), each leaving its
+        // middle corner inside its long edge. Counted, for the record.
+        let slivers = out
+            .triangles
+            .iter()
+            .filter(|t| {
+                let [a, b, c] = t.map(|v| out.positions[v as usize].as_dvec3());
+                (b - a).cross(c - a).length() <= 1e-9 * (b - a).length_squared().max(1.0)
+            })
+            .count();
+        eprintln!("(ε, δ) = ({epsilon}, {delta}): {slivers} triangles without area");
+
+        // Boundary vertices: on a border edge or between two superfaces.
+        let mut owners: Vec<Vec<u32>> = vec![Vec::new(); mesh.positions.len()];
+        for (t, &s) in mesh.triangles.iter().zip(&owner) {
+            for v in t {
+                owners[*v as usize].push(s);
+            }
+        }
+        let kept: std::collections::HashSet<[u32; 3]> = out
+            .positions
+            .iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect();
+        let out_colours = out.colors.as_ref().unwrap();
+        let mut checked = 0;
+        for (v, p) in mesh.positions.iter().enumerate() {
+            let on_boundary = owners[v].iter().any(|&s| s != owners[v][0]);
+            if !on_boundary || kept.contains(&p.to_array().map(f32::to_bits)) {
+                continue;
+            }
+            // The output edge it lies on, and the colour interpolated there.
+            let mut best = f32::INFINITY;
+            for t in &out.triangles {
+                for k in 0..3 {
+                    let (i, j) = (t[k] as usize, t[(k + 1) % 3] as usize);
+                    let (a, b) = (out.positions[i], out.positions[j]);
+                    let s = (*p - a).dot(b - a) / (b - a).length_squared();
+                    if !(0.0..=1.0).contains(&s)
+                        || (*p - a - (b - a) * s).length() > 1e-5 * diagonal as f32
+                    {
+                        continue;
+                    }
+                    let c = out_colours[i].lerp(out_colours[j], s);
+                    best = best.min((c - colours[v]).abs().max_element() * 255.0);
+                }
+            }
+            assert!(
+                best <= delta as f32 + 0.5,
+                "(ε, δ) = ({epsilon}, {delta}): removed boundary vertex {v} is {best} from its edge's colour"
+            );
+            checked += 1;
+        }
+        eprintln!(
+            "(ε, δ) = ({epsilon}, {delta}): {count} superfaces, {stats:?}, {checked} removed boundary vertices checked"
+        );
+        assert!(checked > 0);
+    }
+}

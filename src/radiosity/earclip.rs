@@ -18,8 +18,12 @@ fn top(ring: &[DVec2]) -> usize {
         .unwrap_or(0)
 }
 
+/// Twice the signed area of `oab`, positive when counter-clockwise, with an exact sign (Shewchuk's
+/// adaptive `orient2d`): superface boundaries carry long runs of nearly collinear corners, where a
+/// rounded sign calls a reflex corner convex and the ear it cuts overlaps its neighbours.
 fn cross(o: DVec2, a: DVec2, b: DVec2) -> f64 {
-    (a - o).perp_dot(b - o)
+    let c = |p: DVec2| robust::Coord { x: p.x, y: p.y };
+    robust::orient2d(c(o), c(a), c(b))
 }
 
 /// Whether the open segments `ab` and `cd` cross (touching at an end does not count).
@@ -110,19 +114,36 @@ fn top_point(points: &[DVec2], ring: &[u32]) -> DVec2 {
     r[top(&r)]
 }
 
-/// The paper's ear weight: `cos A + cos B + cos C − 1` of the triangle `abc` when `b` is convex,
-/// else 0.
+/// The paper's ear weight: `cos A + cos B + cos C − 1` of the triangle `abc` when `b` is convex
+/// (at least 0, and 0 only for a degenerate ear), else [`NOT_AN_EAR`] — the paper's 0 for reflex
+/// corners, kept apart here so that a convex sliver, whose weight rounds to 0, can still be cut
+/// when nothing better is left.
 fn weight(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    if cross(a, b, c) <= 0.0 {
-        return 0.0;
+    let turn = cross(a, b, c);
+    if turn <= 0.0 {
+        return NOT_AN_EAR;
+    }
+    // Straight but for rounding (a vertex a superface kept on a straight chain, its coordinates
+    // rounded to f32): cut only when nothing else is left, since its ear has no area and leaves
+    // the corner inside the long edge that replaces it.
+    if turn <= STRAIGHT_SINE * (b - a).length() * (c - b).length() {
+        return STRAIGHT;
     }
     let cos = |o: DVec2, p: DVec2, q: DVec2| {
         let (u, v) = (p - o, q - o);
         let l = u.length() * v.length();
         if l > 0.0 { u.dot(v) / l } else { 1.0 }
     };
-    cos(a, b, c) + cos(b, c, a) + cos(c, a, b) - 1.0
+    (cos(a, b, c) + cos(b, c, a) + cos(c, a, b) - 1.0).max(0.0)
 }
+
+/// The weight of a reflex corner.
+const NOT_AN_EAR: f64 = -1.0;
+/// The weight of a corner turning by less than [`STRAIGHT_SINE`].
+const STRAIGHT: f64 = -0.5;
+/// Corners turning less than this (its sine; about 0.006°) count as straight: f32 coordinates a
+/// few hundred units from the origin round a straight corner on edges a few units long to ~4e-6.
+const STRAIGHT_SINE: f64 = 1e-4;
 
 /// Whether `p` lies inside the closed triangle `abc` (counter-clockwise).
 fn inside(p: DVec2, a: DVec2, b: DVec2, c: DVec2) -> bool {
@@ -144,8 +165,19 @@ pub fn ear_clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
     while ring.len() > 3 {
         let n = ring.len();
         // Best valid ear: the largest weight whose triangle holds no other corner.
-        let mut candidates: Vec<usize> = (0..n).filter(|&k| weights[k] > 0.0).collect();
-        candidates.sort_by(|&x, &y| weights[y].total_cmp(&weights[x]));
+        let mut candidates: Vec<usize> = (0..n).filter(|&k| weights[k] >= STRAIGHT).collect();
+        // Ears beside a straight corner first: cutting one joins that corner to a third vertex.
+        // Left for last, a straight corner is cut as an ear of no area, its neighbours joined by an
+        // edge it lies on (a T-junction in all but name).
+        let beside_straight = |k: usize| {
+            weights[k] >= 0.0
+                && (weights[(k + n - 1) % n] == STRAIGHT || weights[(k + 1) % n] == STRAIGHT)
+        };
+        candidates.sort_by(|&x, &y| {
+            beside_straight(y)
+                .cmp(&beside_straight(x))
+                .then(weights[y].total_cmp(&weights[x]))
+        });
         let valid = |k: usize| {
             let (a, b, c) = (ring[(k + n - 1) % n], ring[k], ring[(k + 1) % n]);
             ring.iter().all(|&q| {
@@ -170,7 +202,33 @@ pub fn ear_clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
         weights[after] = ear_weight(&ring, after);
     }
     out.push([ring[0], ring[1], ring[2]]);
+    flip_slivers(points, &mut out);
     out
+}
+
+/// Ears of no area: a straight corner `v` cut between `a` and `b`, so that the long edge `a–b` runs
+/// through `v` (it happens when a ring is down to the last corners of a straight run). Each is
+/// flipped with the triangle across `a–b`, `(b, a, x)`: into `(a, v, x)` and `(v, b, x)`, which
+/// cover the same area with `v` a corner of both.
+fn flip_slivers(points: &[DVec2], out: &mut [[u32; 3]]) {
+    let p = |i: u32| points[i as usize];
+    for t in 0..out.len() {
+        let Some(r) = (0..3).find(|&r| {
+            let [a, v, b] = [0, 1, 2].map(|k| out[t][(r + k) % 3]);
+            weight(p(a), p(v), p(b)) == STRAIGHT && (p(v) - p(a)).dot(p(b) - p(v)) > 0.0
+        }) else {
+            continue;
+        };
+        let [a, v, b] = [0, 1, 2].map(|k| out[t][(r + k) % 3]);
+        let across = (0..out.len())
+            .find(|&u| u != t && (0..3).any(|k| out[u][k] == b && out[u][(k + 1) % 3] == a));
+        if let Some(u) = across {
+            let k = (0..3).find(|&k| out[u][k] == b).unwrap_or(0);
+            let x = out[u][(k + 2) % 3];
+            out[t] = [a, v, x];
+            out[u] = [v, b, x];
+        }
+    }
 }
 
 #[cfg(test)]

@@ -87,14 +87,27 @@ pub fn simplify_superfaces(
     let count = owner.iter().map(|&s| s as usize + 1).max().unwrap_or(0);
     let loops = boundary_loops(mesh, &owner, count);
     let mut kept = simplify_chains(&patches, &loops, options);
-    // A ring straightened to fewer than 3 corners (a superface between only two chains) keeps two
-    // more; `kept` is shared, so the superface across keeps them too.
+    // A ring straightened to fewer than 3 corners (a superface between only two chains) keeps three
+    // corners of its hull, which span a triangle; `kept` is shared, so the superface across keeps
+    // them too.
     for ring in loops.iter().flatten() {
         if ring.iter().filter(|e| kept[e.from as usize]).count() < 3 && ring.len() >= 3 {
-            kept[ring[ring.len() / 3].from as usize] = true;
-            kept[ring[2 * ring.len() / 3].from as usize] = true;
-            kept[ring[0].from as usize] = true;
+            let at = |i: usize| mesh.positions[ring[i].from as usize].as_dvec3();
+            for i in hull_corners(ring.len(), at) {
+                kept[ring[i].from as usize] = true;
+            }
         }
+    }
+    // A lit mesh keeps each polygon's vertices apart (they carry its own colours), so where two
+    // polygons meet along a crease, each side's chain is decided on its own: a corner kept on one
+    // side is kept on the other, or the other's straightened edge would pass by it (a T-junction).
+    let at = |v: u32| mesh.positions[v as usize].to_array().map(f32::to_bits);
+    let mut kept_at: HashMap<[u32; 3], bool> = HashMap::new();
+    for e in loops.iter().flatten().flatten() {
+        *kept_at.entry(at(e.from)).or_default() |= kept[e.from as usize];
+    }
+    for e in loops.iter().flatten().flatten() {
+        kept[e.from as usize] |= kept_at[&at(e.from)];
     }
     let mut triangles = Vec::new();
     for (s, rings) in loops.iter().enumerate() {
@@ -371,6 +384,28 @@ fn boundary_loops(mesh: &Mesh, owner: &[u32], count: usize) -> Vec<Vec<Vec<Edge>
         .collect()
 }
 
+/// Three corners of the convex hull of points `0..len` (by `at`), found alike from any starting
+/// point: the lexicographically largest, the one farthest from it, the one farthest from their line.
+fn hull_corners(len: usize, at: impl Fn(usize) -> DVec3) -> [usize; 3] {
+    let first = (0..len)
+        .max_by(|&a, &b| {
+            let (p, q) = (at(a), at(b));
+            p.x.total_cmp(&q.x)
+                .then(p.y.total_cmp(&q.y))
+                .then(p.z.total_cmp(&q.z))
+        })
+        .unwrap_or(0);
+    let far =
+        |d: &dyn Fn(usize) -> f64| (0..len).max_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap_or(0);
+    let second = far(&|i| at(i).distance_squared(at(first)));
+    let axis = (at(second) - at(first)).normalize_or_zero();
+    let third = far(&|i| {
+        let r = at(i) - at(first);
+        (r - axis * r.dot(axis)).length_squared()
+    });
+    [first, second, third]
+}
+
 /// Which vertices stay after boundary simplification: chain ends always; inner chain vertices where
 /// the recursive straightening needs them. Every chain is decided once, in a direction that does
 /// not depend on the side it is seen from.
@@ -403,24 +438,7 @@ fn simplify_chains(
                 // lexicographically largest vertex, the one farthest from it, the one farthest from
                 // their line), which both sides of the loop find alike.
                 let at = |i: usize| patches.mesh.positions[ring[i].from as usize].as_dvec3();
-                let first = (0..len)
-                    .max_by(|&a, &b| {
-                        let (p, q) = (at(a), at(b));
-                        p.x.total_cmp(&q.x)
-                            .then(p.y.total_cmp(&q.y))
-                            .then(p.z.total_cmp(&q.z))
-                    })
-                    .unwrap_or(0);
-                let far = |d: &dyn Fn(usize) -> f64| {
-                    (0..len).max_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap_or(0)
-                };
-                let second = far(&|i| at(i).distance_squared(at(first)));
-                let axis = (at(second) - at(first)).normalize_or_zero();
-                let third = far(&|i| {
-                    let r = at(i) - at(first);
-                    (r - axis * r.dot(axis)).length_squared()
-                });
-                ends = vec![first, second, third];
+                ends = hull_corners(len, at).to_vec();
                 ends.sort_unstable();
                 ends.dedup();
             }
