@@ -10,7 +10,8 @@ struct Globals {
     // x: τ in pixels (debug error colouring); y: near plane; zw: unused.
     params: vec4<f32>,
     // x: colour mode (0 shaded, 1 vertex colours, 2 tree depth, 3 projected error, 4 baked);
-    // y: flat shading (1) or smooth (0); z: 1 for the wireframe pass; w: unused.
+    // y: flat shading (1) or smooth (0); z: 1 for the wireframe pass; w: 1 for a one-sided model,
+    // whose back faces are not drawn.
     modes: vec4<u32>,
     wire_color: vec4<f32>,
 }

@@ -71,7 +71,10 @@ fn vs_main(v: VertexIn) -> VertexOut {
 }
 
 @fragment
-fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    if (g.modes.w == 1u && !front) {
+        discard;
+    }
     if (g.modes.x == 4u) {
         return vec4<f32>(in.color.rgb, 1.0);
     }

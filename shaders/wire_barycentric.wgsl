@@ -26,7 +26,10 @@ fn vs_main(@builtin(vertex_index) i: u32) -> VertexOut {
 }
 
 @fragment
-fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    if (g.modes.w == 1u && !front) {
+        discard;
+    }
     // Distance to the nearest edge in pixels, from the barycentric's screen-space rate of change.
     let d = in.barycentric / max(fwidth(in.barycentric), vec3<f32>(1e-6));
     let edge = 1.0 - smoothstep(0.5, 1.5, min(d.x, min(d.y, d.z)));

@@ -333,3 +333,16 @@ fn radiosity_and_superfaces_from_the_command_line() {
     ]);
     assert!(j["triangles_out"].as_u64().unwrap() < elements);
 }
+
+/// `view` and `render` light a scene before building it: the bundled scenes are scenes, a mesh with
+/// materials that do not emit (the bundled cessna) and a file that is not OBJ are not.
+#[test]
+fn scenes_are_told_from_meshes() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    for name in ["cornell.obj", "room.obj", "office.obj"] {
+        assert!(vunify::radiosity::is_scene(&root.join("assets/scenes").join(name)), "{name}");
+    }
+    assert!(!vunify::radiosity::is_scene(&root.join("assets/cessna.obj")));
+    assert!(!vunify::radiosity::is_scene(&root.join("assets/scenes/room.mtl")));
+    assert!(!vunify::radiosity::is_scene(&root.join("no such file.obj")));
+}

@@ -109,6 +109,32 @@ pub fn load(
         metric,
         ..Default::default()
     };
+    // A scene (OBJ whose materials emit) is lit first, once: the lit mesh is cached like a tree.
+    let lit = if crate::radiosity::is_scene(path) {
+        // Keyed by the scene and its materials.
+        let mut bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            if entry.path().extension().is_some_and(|e| e == "mtl") {
+                bytes.extend(std::fs::read(entry.path()).unwrap_or_default());
+            }
+        }
+        let cached = cache_file(&bytes, metric).map(|c| c.with_extension("lit.ply"));
+        let out = cached.unwrap_or_else(|| std::env::temp_dir().join("vunify-lit.ply"));
+        if !out.exists() {
+            if let Some(dir) = out.parent() {
+                let _ = std::fs::create_dir_all(dir);
+            }
+            crate::radiosity::light(path, &out, &mut |share, what| {
+                progress(share as f32, &format!("lighting the scene: {what}"))
+            })?;
+        }
+        Some(out)
+    } else {
+        None
+    };
+    let shown = path;
+    let path = lit.as_deref().unwrap_or(path);
     let mut build_progress = |done: usize, total: usize| {
         progress(
             done as f32 / total.max(1) as f32,
@@ -141,7 +167,7 @@ pub fn load(
     tree.check_viewable()
         .map_err(|e| format!("{}: {e}", path.display()))?;
     progress(1.0, "preparing the runtime");
-    Ok(ready(path, metric, tree, cached))
+    Ok(ready(shown, metric, tree, cached))
 }
 
 fn ready(path: &Path, metric: Metric, tree: VertexTree, cached: bool) -> Loaded {

@@ -120,6 +120,20 @@ fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
 /// A model's tree, read from a .vtree or built from a mesh with the default options, with a progress
 /// bar while it builds.
 fn load_tree(model: &std::path::Path) -> Result<vunify::vtree::VertexTree> {
+    if vunify::radiosity::is_scene(model) {
+        // A scene: lit first (as `vunify radiosity` would), then its lit mesh built.
+        let lit = std::env::temp_dir().join(format!("vunify-lit-{}.ply", std::process::id()));
+        let bar = progress_bar(1000, "lighting the scene [{bar:40}] {msg} ({elapsed})");
+        vunify::radiosity::light(model, &lit, &mut |share, what| {
+            bar.set_position((share * 1000.0) as u64);
+            bar.set_message(what.to_string());
+        })
+        .map_err(anyhow::Error::msg)?;
+        bar.finish_and_clear();
+        let tree = load_tree(&lit);
+        let _ = std::fs::remove_file(&lit);
+        return tree;
+    }
     let bar = progress_bar(0, "building the tree [{bar:40}] {pos}/{len} merges");
     let tree = vunify::vtree::load_or_build(
         model,

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 #[derive(Args)]
 pub struct ViewArgs {
     /// The model: .vtree opens at once, a mesh (.obj, .ply, .off, optionally .xz) is built in the
-    /// background (and cached). Default: the bundled model.
+    /// background (and cached), a scene (.obj whose materials emit, `Ke`) is lit by radiosity first.
+    /// Default: the bundled model.
     model: Option<PathBuf>,
     /// Run a script (JSON: frames, camera path, UI actions, screenshots; the README shows one) and exit.
     #[arg(long)]

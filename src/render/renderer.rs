@@ -74,6 +74,8 @@ struct Model {
     has_colors: bool,
     /// A one-sided mesh with colours: lighting baked in, drawn unlit by `ColorBy::Auto`.
     baked: bool,
+    /// Faces are drawn from their front only (a lit room seen from outside shows its inside).
+    one_sided: bool,
     indices: Indices,
     triangles: u32,
 }
@@ -320,6 +322,7 @@ impl Renderer {
             debug: vertex("debug", bytemuck::cast_slice(&debug)),
             has_colors,
             baked: has_colors && h.one_sided,
+            one_sided: h.one_sided,
             indices: Indices::new(device, self.chunk_triangles),
             triangles: 0,
         };
@@ -410,7 +413,12 @@ impl Renderer {
             eye: camera.position.extend(view.px_per_unit()).to_array(),
             light: light.extend(0.25).to_array(),
             params: [options.tolerance_px, camera.near, 0.0, 0.0],
-            modes: [mode, options.flat as u32, 0, 0],
+            modes: [
+                mode,
+                options.flat as u32,
+                0,
+                self.model.as_ref().is_some_and(|m| m.one_sided) as u32,
+            ],
             wire_color: [0.02, 0.02, 0.02, 1.0],
         };
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));

@@ -124,12 +124,20 @@ impl PairEnd {
     pub fn merged(a: &PairEnd, b: &PairEnd, position: Vec3) -> PairEnd {
         let p = position.as_dvec3();
         let (qa, qb) = (a.quadric_about(p), b.quadric_about(p));
-        let share = share_of(qa.weight, qb.weight) as f32;
+        // Equal colours (every end of a mesh without colours) blend to themselves.
+        let color = if a.color == b.color {
+            a.color
+        } else {
+            to_u8(
+                a.color()
+                    .lerp(b.color(), share_of(qa.weight, qb.weight) as f32),
+            )
+        };
         PairEnd {
             quadric: LocalQuadric::new(&(qa + qb)),
             position,
             weight: merged_weight(a.weight, b.weight),
-            color: to_u8(a.color().lerp(b.color(), share)),
+            color,
         }
     }
 }
