@@ -340,9 +340,16 @@ fn radiosity_and_superfaces_from_the_command_line() {
 fn scenes_are_told_from_meshes() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     for name in ["cornell.obj", "room.obj", "office.obj"] {
-        assert!(vunify::radiosity::is_scene(&root.join("assets/scenes").join(name)), "{name}");
+        assert!(
+            vunify::radiosity::is_scene(&root.join("assets/scenes").join(name)),
+            "{name}"
+        );
     }
-    assert!(!vunify::radiosity::is_scene(&root.join("assets/cessna.obj")));
-    assert!(!vunify::radiosity::is_scene(&root.join("assets/scenes/room.mtl")));
+    assert!(!vunify::radiosity::is_scene(
+        &root.join("assets/cessna.obj")
+    ));
+    assert!(!vunify::radiosity::is_scene(
+        &root.join("assets/scenes/room.mtl")
+    ));
     assert!(!vunify::radiosity::is_scene(&root.join("no such file.obj")));
 }
