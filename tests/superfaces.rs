@@ -200,9 +200,9 @@ fn the_lit_cornell_box_keeps_the_papers_promises() {
             area(&out),
             area(&mesh)
         );
-        // Not asserted here yet: a few output triangles have no area (three corners of a straight
-        // run of f32-rounded boundary vertices, where a ring keeps only those), each leaving its
-        // middle corner inside its long edge. Counted, for the record.
+        // Not asserted here yet: a few output triangles have no area, each leaving its middle
+        // corner inside its long edge (a fan of zero-area ears along a straight run of a long ring
+        // on the tilted left wall, where no other ear is valid). Counted, for the record.
         let slivers = out
             .triangles
             .iter()

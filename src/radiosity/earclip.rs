@@ -215,7 +215,9 @@ fn flip_slivers(points: &[DVec2], out: &mut [[u32; 3]]) {
     for t in 0..out.len() {
         let Some(r) = (0..3).find(|&r| {
             let [a, v, b] = [0, 1, 2].map(|k| out[t][(r + k) % 3]);
-            weight(p(a), p(v), p(b)) == STRAIGHT && (p(v) - p(a)).dot(p(b) - p(v)) > 0.0
+            let (va, vb) = (p(v) - p(a), p(b) - p(v));
+            cross(p(a), p(v), p(b)).abs() <= STRAIGHT_SINE * va.length() * vb.length()
+                && va.dot(vb) > 0.0
         }) else {
             continue;
         };
