@@ -332,6 +332,23 @@ fn radiosity_and_superfaces_from_the_command_line() {
         &os("--json"),
     ]);
     assert!(j["triangles_out"].as_u64().unwrap() < elements);
+    // A scene opens directly: `path` (like `view` and `render`) lights it, then builds its tree.
+    let camera = dir.join("path.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args([
+            &os("path"),
+            dir.join("box.obj").as_os_str(),
+            &os("-o"),
+            camera.as_os_str(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    vunify::camera_path::CameraPath::load(&camera).unwrap();
 }
 
 /// `view` and `render` light a scene before building it: the bundled scenes are scenes, a mesh with
