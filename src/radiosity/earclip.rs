@@ -214,7 +214,7 @@ fn without_straight_runs(
     while from < start + n {
         // The farthest `to` with everything between on the segment.
         let mut to = from + 1;
-        while to < start + n && on_segment(from, to + 1) {
+        while to + 1 <= start + n && on_segment(from, to + 1) {
             to += 1;
         }
         if to > from + 1 {
