@@ -152,88 +152,7 @@ fn inside(p: DVec2, a: DVec2, b: DVec2, c: DVec2) -> bool {
 
 /// Ear-clips a simple counter-clockwise polygon (ids into `points`, bridges allowed: an id may
 /// appear twice); returns triangles of ids.
-///
-/// Straight runs of corners (a superface's boundary keeps such corners where the superface across
-/// needs them) are taken out first and the polygon of the remaining corners is clipped; each run is
-/// then put back by fanning the one triangle on its edge from its third corner. Clipped with them
-/// in, a long ring with straight runs could reach a state with no valid ear but straight corners,
-/// and cut ears of no area along a run.
 pub fn ear_clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
-    let Some((corners, runs)) = without_straight_runs(points, polygon) else {
-        return clip(points, polygon);
-    };
-    let mut out = clip(points, &corners);
-    for (a, b, inner) in runs {
-        let Some((t, x)) = out.iter().enumerate().find_map(|(t, tri)| {
-            (0..3)
-                .find(|&k| tri[k] == a && tri[(k + 1) % 3] == b)
-                .map(|k| (t, tri[(k + 2) % 3]))
-        }) else {
-            continue;
-        };
-        let mut chain = vec![a];
-        chain.extend(&inner);
-        chain.push(b);
-        out[t] = [chain[0], chain[1], x];
-        for w in chain.windows(2).skip(1) {
-            out.push([w[0], w[1], x]);
-        }
-    }
-    out
-}
-
-/// `polygon` without the corners that lie on the segment between their kept neighbours (within
-/// [`STRAIGHT_SINE`] of its length), and the runs taken out: `(kept corner, next kept corner,
-/// the corners between)`. `None` when fewer than 3 corners would be left.
-#[allow(clippy::type_complexity)]
-fn without_straight_runs(
-    points: &[DVec2],
-    polygon: &[u32],
-) -> Option<(Vec<u32>, Vec<(u32, u32, Vec<u32>)>)> {
-    let n = polygon.len();
-    let p = |k: usize| points[polygon[k % n] as usize];
-    // Whether the corners strictly between positions `from` and `to` (cyclic) lie on that segment.
-    let on_segment = |from: usize, to: usize| {
-        let (a, b) = (p(from), p(to));
-        let ab = b - a;
-        let length = ab.length();
-        length > 0.0
-            && (from + 1..to).all(|k| {
-                let q = p(k) - a;
-                let along = q.dot(ab);
-                cross(a, b, p(k)).abs() <= STRAIGHT_SINE * length * length
-                    && along > 0.0
-                    && along < ab.length_squared()
-            })
-    };
-    // Start at a corner that stays: one not on the segment between its neighbours.
-    let start = (0..n).find(|&k| !on_segment(k + n - 1, k + n + 1))?;
-    let mut corners = vec![polygon[start]];
-    let mut runs = Vec::new();
-    let mut from = start;
-    while from < start + n {
-        // The farthest `to` with everything between on the segment.
-        let mut to = from + 1;
-        while to + 1 <= start + n && on_segment(from, to + 1) {
-            to += 1;
-        }
-        if to > from + 1 {
-            runs.push((
-                polygon[from % n],
-                polygon[to % n],
-                (from + 1..to).map(|k| polygon[k % n]).collect(),
-            ));
-        }
-        if to < start + n {
-            corners.push(polygon[to % n]);
-        }
-        from = to;
-    }
-    (corners.len() >= 3 && !runs.is_empty()).then_some((corners, runs))
-}
-
-/// Ear clipping proper (see [`ear_clip`]).
-fn clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
     let mut ring: Vec<u32> = polygon.to_vec();
     let mut out = Vec::with_capacity(ring.len().saturating_sub(2));
     let p = |i: u32| points[i as usize];
@@ -417,49 +336,6 @@ mod tests {
                 !(c.x > 1.0 && c.x < 3.0 && c.y > 1.0 && c.y < 3.0),
                 "{t:?} covers the hole"
             );
-        }
-    }
-
-    /// A unit square with four more corners along its bottom edge and two up its right edge, all
-    /// exactly straight:
-    /// ```text
-    ///   7─────────6
-    ///   │         5
-    ///   │         4
-    ///   0─1─2─3─8─9   (ids along the bottom: 0, 1, 2, 3, 8, then the corner 9)
-    /// ```
-    /// Every corner is used, no triangle is without area, and the area is 1.
-    #[test]
-    fn straight_runs_are_fanned_not_cut() {
-        let points: Vec<DVec2> = [
-            (0.0, 0.0),
-            (0.2, 0.0),
-            (0.4, 0.0),
-            (0.6, 0.0),
-            (1.0, 1.0 / 3.0),
-            (1.0, 2.0 / 3.0),
-            (1.0, 1.0),
-            (0.0, 1.0),
-            (0.8, 0.0),
-            (1.0, 0.0),
-        ]
-        .map(|(x, y)| DVec2::new(x, y))
-        .to_vec();
-        let polygon = [0, 1, 2, 3, 8, 9, 4, 5, 6, 7];
-        let tris = ear_clip(&points, &polygon);
-        assert_eq!(tris.len(), polygon.len() - 2);
-        assert!((area(&points, &tris) - 1.0).abs() < 1e-12);
-        for t in &tris {
-            let a = 0.5
-                * cross(
-                    points[t[0] as usize],
-                    points[t[1] as usize],
-                    points[t[2] as usize],
-                );
-            assert!(a > 1e-3, "{t:?} has area {a}");
-        }
-        for v in polygon {
-            assert!(tris.iter().any(|t| t.contains(&v)), "corner {v} unused");
         }
     }
 }
