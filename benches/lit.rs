@@ -52,14 +52,14 @@ fn meshopt_with_colours(mesh: &Mesh, target: usize) -> Mesh {
     m
 }
 
-/// The mesh drawn whole from the view at time `t` of the camera path.
-fn picture(
+/// The mesh drawn whole from the views at times `views` of the camera path (one tree, one upload).
+fn pictures(
     gpu: &Gpu,
     mesh: &Mesh,
     camera_path: &CameraPath,
-    t: f32,
+    views: &[f32],
     diagonal: f32,
-) -> image::RgbaImage {
+) -> Vec<image::RgbaImage> {
     let (tree, _) = vtree::build(mesh, &BuildOptions::default(), &mut |_, _| {}).expect("builds");
     let h = Hierarchy::new(&tree);
     let mut all = Front::new(&h);
@@ -68,14 +68,19 @@ fn picture(
     renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
     renderer.set_triangles(&gpu.device, &gpu.queue, all.indices());
     let target = Offscreen::new(&gpu.device, SIZE);
-    let camera = camera_at(camera_path, t, SIZE, diagonal);
     let draw = DrawOptions {
         color_by: ColorBy::Baked,
         ..Default::default()
     };
-    frame(gpu, &mut renderer, &target, &camera, &draw)
-        .expect("renders")
-        .0
+    views
+        .iter()
+        .map(|&t| {
+            let camera = camera_at(camera_path, t, SIZE, diagonal);
+            frame(gpu, &mut renderer, &target, &camera, &draw)
+                .expect("renders")
+                .0
+        })
+        .collect()
 }
 
 /// PSNR (dB) and the share of pixels with a channel off by more than 2/255.
@@ -107,10 +112,7 @@ fn main() {
             views.push(key.time);
         }
     }
-    let references: Vec<_> = views
-        .iter()
-        .map(|&t| picture(&gpu, &lit, &camera_path, t, diagonal))
-        .collect();
+    let references = pictures(&gpu, &lit, &camera_path, &views, diagonal);
     let (tree, _) = vtree::build(&lit, &BuildOptions::default(), &mut |_, _| {}).expect("builds");
     println!(
         "{lit_file}: {} triangles, {} views (PSNR and pixels off: mean over the views, then the worst view)",
@@ -135,12 +137,10 @@ fn main() {
             ("meshopt (colour 1)", &peer),
             ("vertex tree", &cut),
         ] {
-            let judged: Vec<(f64, f64)> = views
+            let judged: Vec<(f64, f64)> = pictures(&gpu, mesh, &camera_path, &views, diagonal)
                 .iter()
                 .zip(&references)
-                .map(|(&t, reference)| {
-                    judge(&picture(&gpu, mesh, &camera_path, t, diagonal), reference)
-                })
+                .map(|(image, reference)| judge(image, reference))
                 .collect();
             let count = judged.len() as f64;
             let psnr = judged.iter().map(|j| j.0).sum::<f64>() / count;
