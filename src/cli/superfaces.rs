@@ -56,11 +56,12 @@ pub fn run(args: SuperfacesArgs) -> Result<()> {
         return Ok(());
     }
     println!(
-        "{} → {} triangles ({:.1} %) in {} superfaces, ε = {}, δ = {}, in {:.3} s",
+        "{} → {} triangles ({:.1} %) in {} superfaces ({} holes), ε = {}, δ = {}, in {:.3} s",
         s.triangles_in,
         s.triangles_out,
         100.0 * s.ratio,
         s.superfaces,
+        s.holes,
         args.epsilon,
         args.delta,
         s.seconds

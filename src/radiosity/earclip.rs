@@ -7,6 +7,7 @@
 //! cuts well-shaped triangles first and leaves slivers for last, when nothing else is left.
 
 use glam::DVec2;
+use std::collections::HashMap;
 
 /// `TOP(P)`: the ring's highest corner, `(x, y) > (u, v)` iff `y > v`, or `y = v` and `x > u`.
 fn top(ring: &[DVec2]) -> usize {
@@ -49,7 +50,27 @@ fn distance_to_segment(v: DVec2, a: DVec2, b: DVec2) -> f64 {
 /// (clockwise), each hole joined to the outer ring by a bridge there and back.
 pub fn bridge(points: &[DVec2], outer: &[u32], holes: &[Vec<u32>]) -> Vec<u32> {
     let mut polygon: Vec<u32> = outer.to_vec();
-    let mut order: Vec<&Vec<u32>> = holes.iter().filter(|h| h.len() >= 3).collect();
+    // A hole touching the outer ring or another hole at a corner (a superface that grew round a
+    // region and closed at one vertex) is joined there, a bridge of no length.
+    let mut holes: Vec<Vec<u32>> = holes.iter().filter(|h| h.len() >= 3).cloned().collect();
+    'splice: loop {
+        for i in 0..holes.len() {
+            if let Some(spliced) = splice(&polygon, &holes[i]) {
+                polygon = spliced;
+                holes.remove(i);
+                continue 'splice;
+            }
+            for j in i + 1..holes.len() {
+                if let Some(spliced) = splice(&holes[i], &holes[j]) {
+                    holes[i] = spliced;
+                    holes.remove(j);
+                    continue 'splice;
+                }
+            }
+        }
+        break;
+    }
+    let mut order: Vec<&Vec<u32>> = holes.iter().collect();
     // Highest TOP first, as the paper orders them.
     order.sort_by(|a, b| {
         let (p, q) = (top_point(points, a), top_point(points, b));
@@ -107,6 +128,19 @@ pub fn bridge(points: &[DVec2], outer: &[u32], holes: &[Vec<u32>]) -> Vec<u32> {
         polygon = next;
     }
     polygon
+}
+
+/// `ring` joined into `into` at a corner they share: `into` up to that corner, round `ring` from it
+/// back to it, then the rest of `into`; `None` when they share no corner.
+fn splice(into: &[u32], ring: &[u32]) -> Option<Vec<u32>> {
+    let (k, j) = into
+        .iter()
+        .enumerate()
+        .find_map(|(k, v)| ring.iter().position(|w| w == v).map(|j| (k, j)))?;
+    let mut out = into[..=k].to_vec();
+    out.extend((1..=ring.len()).map(|s| ring[(j + s) % ring.len()]));
+    out.extend(&into[k + 1..]);
+    Some(out)
 }
 
 fn top_point(points: &[DVec2], ring: &[u32]) -> DVec2 {
@@ -180,14 +214,20 @@ pub fn ear_clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
         });
         let valid = |k: usize| {
             let (a, b, c) = (ring[(k + n - 1) % n], ring[k], ring[(k + 1) % n]);
-            ring.iter().all(|&q| {
-                q == a
-                    || q == b
-                    || q == c
-                    || p(q) == p(a)
-                    || p(q) == p(b)
-                    || p(q) == p(c)
-                    || !inside(p(q), p(a), p(b), p(c))
+            let corners = [(a, c, b), (b, a, c), (c, b, a)];
+            (0..n).all(|i| {
+                let q = ring[i];
+                if i == k || i == (k + n - 1) % n || i == (k + 1) % n {
+                    return true;
+                }
+                // A corner the ring passes twice (a bridge's end, or where a hole touches): the
+                // ear must stay out of the other visit's wedge, so neither of that visit's edges
+                // may leave the corner into the ear.
+                if let Some(&(o, u, w)) = corners.iter().find(|c| p(c.0) == p(q)) {
+                    let into = |d: DVec2| cross(p(o), p(u), d) < 0.0 && cross(p(o), p(w), d) > 0.0;
+                    return !into(p(ring[(i + n - 1) % n])) && !into(p(ring[(i + 1) % n]));
+                }
+                !inside(p(q), p(a), p(b), p(c))
             })
         };
         // With no valid convex ear (only possible for a polygon that is not simple, e.g. a bad
@@ -208,27 +248,73 @@ pub fn ear_clip(points: &[DVec2], polygon: &[u32]) -> Vec<[u32; 3]> {
 
 /// Ears of no area: a straight corner `v` cut between `a` and `b`, so that the long edge `a–b` runs
 /// through `v` (it happens when a ring is down to the last corners of a straight run). Each is
-/// flipped with the triangle across `a–b`, `(b, a, x)`: into `(a, v, x)` and `(v, b, x)`, which
-/// cover the same area with `v` a corner of both.
+/// flipped with the triangle across `a–b`, `(a, b, x)`: into `(a, v, x)` and `(v, b, x)`, which
+/// cover the same area with `v` a corner of both. A flip is made only when both new triangles are
+/// counter-clockwise (exactly) and the worse of the pair gets better, so a run of straight corners
+/// (the far side `x` on the same line) is worked through over several passes and the loop ends.
 fn flip_slivers(points: &[DVec2], out: &mut [[u32; 3]]) {
     let p = |i: u32| points[i as usize];
-    for t in 0..out.len() {
-        let Some(r) = (0..3).find(|&r| {
-            let [a, v, b] = [0, 1, 2].map(|k| out[t][(r + k) % 3]);
+    // How far from degenerate: twice the area over the longest edge squared (0 for no area).
+    let shape = |t: [u32; 3]| {
+        let [a, b, c] = t.map(p);
+        let longest = (b - a)
+            .length_squared()
+            .max((c - b).length_squared())
+            .max((a - c).length_squared());
+        if longest > 0.0 {
+            cross(a, b, c) / longest
+        } else {
+            0.0
+        }
+    };
+    let straight_corner = |t: [u32; 3]| {
+        (0..3).find_map(|r| {
+            let [a, v, b] = [0, 1, 2].map(|k| t[(r + k) % 3]);
             let (va, vb) = (p(v) - p(a), p(b) - p(v));
-            cross(p(a), p(v), p(b)).abs() <= STRAIGHT_SINE * va.length() * vb.length()
-                && va.dot(vb) > 0.0
-        }) else {
-            continue;
-        };
-        let [a, v, b] = [0, 1, 2].map(|k| out[t][(r + k) % 3]);
-        let across = (0..out.len())
-            .find(|&u| u != t && (0..3).any(|k| out[u][k] == b && out[u][(k + 1) % 3] == a));
-        if let Some(u) = across {
-            let k = (0..3).find(|&k| out[u][k] == b).unwrap_or(0);
+            (cross(p(a), p(v), p(b)).abs() <= STRAIGHT_SINE * va.length() * vb.length()
+                && va.dot(vb) > 0.0)
+                .then_some([a, v, b])
+        })
+    };
+    let mut across: HashMap<(u32, u32), usize> = HashMap::new();
+    for (t, tri) in out.iter().enumerate() {
+        for k in 0..3 {
+            across.insert((tri[k], tri[(k + 1) % 3]), t);
+        }
+    }
+    for _pass in 0..out.len() {
+        let mut flipped = false;
+        for t in 0..out.len() {
+            let Some([a, v, b]) = straight_corner(out[t]) else {
+                continue;
+            };
+            // The neighbour runs the shared edge the other way, `a → b → x`.
+            let Some(&u) = across.get(&(a, b)) else {
+                continue;
+            };
+            let k = (0..3).find(|&k| out[u][k] == a).unwrap_or(0);
             let x = out[u][(k + 2) % 3];
-            out[t] = [a, v, x];
-            out[u] = [v, b, x];
+            let (first, second) = ([a, v, x], [v, b, x]);
+            let better = shape(first).min(shape(second)) > shape(out[t]).min(shape(out[u]));
+            if !(better && cross(p(a), p(v), p(x)) > 0.0 && cross(p(v), p(b), p(x)) > 0.0) {
+                continue;
+            }
+            for tri in [out[t], out[u]] {
+                for k in 0..3 {
+                    across.remove(&(tri[k], tri[(k + 1) % 3]));
+                }
+            }
+            out[t] = first;
+            out[u] = second;
+            for (i, tri) in [(t, first), (u, second)] {
+                for k in 0..3 {
+                    across.insert((tri[k], tri[(k + 1) % 3]), i);
+                }
+            }
+            flipped = true;
+        }
+        if !flipped {
+            break;
         }
     }
 }
@@ -294,6 +380,66 @@ mod tests {
                 "a triangle across the notch: {t:?}"
             );
         }
+    }
+
+    /// A hole touching the outer ring at a corner (`1`, where a superface closed round it) is
+    /// joined there with no bridge: one ring of 8 corners (`1` twice), 6 triangles, area 16 − 2,
+    /// none over the hole, and none reaching from one visit of `1` into the other's wedge.
+    /// ```text
+    ///   4───────────3
+    ///   │           │
+    ///   │   6───5   │
+    ///   │    ╲ ╱    │
+    ///   0─────1─────2
+    /// ```
+    #[test]
+    fn a_hole_touching_the_outer_ring() {
+        let pts = [
+            (0., 0.),
+            (2., 0.),
+            (4., 0.),
+            (4., 4.),
+            (0., 4.),
+            (3., 2.),
+            (1., 2.),
+        ]
+        .map(DVec2::from)
+        .to_vec();
+        // The hole clockwise: 1, 6, 5.
+        let polygon = bridge(&pts, &[0, 1, 2, 3, 4], &[vec![1, 6, 5]]);
+        assert_eq!(polygon, [0, 1, 6, 5, 1, 2, 3, 4]);
+        let tris = ear_clip(&pts, &polygon);
+        assert_eq!(tris.len(), 6);
+        assert!((area(&pts, &tris) - 14.0).abs() < 1e-12);
+        for t in &tris {
+            let [a, b, c] = t.map(|i| pts[i as usize]);
+            assert!(cross(a, b, c) > 0.0, "{t:?} is not counter-clockwise");
+            let centre = (a + b + c) / 3.0;
+            assert!(
+                !inside(centre, pts[1], pts[5], pts[6]),
+                "{t:?} covers the hole"
+            );
+        }
+    }
+
+    /// A straight corner cut as an ear, `(a, v, b)` with `v` on `a–b`, is flipped with the
+    /// triangle across `a–b` into two with area, `v` a corner of both.
+    /// ```text
+    ///         x                 x
+    ///        ╱ ╲               ╱│╲
+    ///       ╱   ╲      →      ╱ │ ╲
+    ///      a──v──b           a──v──b
+    /// ```
+    #[test]
+    fn a_straight_ear_is_flipped() {
+        let pts = [(0., 0.), (1., 0.), (2., 0.), (1., 1.)]
+            .map(DVec2::from)
+            .to_vec();
+        let (a, v, b, x) = (0, 1, 2, 3);
+        let mut tris = [[a, v, b], [a, b, x]];
+        flip_slivers(&pts, &mut tris);
+        assert_eq!(tris, [[a, v, x], [v, b, x]]);
+        assert!((area(&pts, &tris) - 1.0).abs() < 1e-12);
     }
 
     /// A square with a square hole: bridged from the hole's top to the outer ring (10 corners:

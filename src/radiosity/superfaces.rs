@@ -19,13 +19,17 @@
 //!   divides by `A_P + A_S`, which shrinks as the superface grows until every patch passes (on the
 //!   Cornell box, each wall became one superface at every ε); vunify measures the patch against the
 //!   superface's mean radiosity at the patch's own scale, `2 A_P`.
+//! - A superface may close round a region, which becomes a hole (first touching the outer ring at
+//!   the corner where it closed). Each superface's triangulation is checked (counter-clockwise in
+//!   exact arithmetic, the rings' area); the few that fail are grown again as discs, where a patch
+//!   whose third corner already lies on the superface waits until it joins along two edges.
 //! - Boundary chains (runs of edges between the same two superfaces, or on the mesh's border) are
 //!   simplified once and shared by both sides, so no crack opens between them.
 
 use super::earclip::{bridge, ear_clip};
 use crate::mesh::Mesh;
 use glam::{DVec2, DVec3, Vec3};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// Settings of a superface simplification.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +49,8 @@ pub struct SuperfaceStats {
     pub triangles_in: usize,
     pub triangles_out: usize,
     pub superfaces: usize,
+    /// Holes in superfaces (a superface that grew round another), bridged to their outer rings.
+    pub holes: usize,
     /// Output triangles over input triangles.
     pub ratio: f64,
     pub seconds: f64,
@@ -61,7 +67,8 @@ pub enum SuperfaceError {
     Negative(&'static str),
 }
 
-/// The superfaces of a mesh: which superface each triangle joined.
+/// The superfaces of a mesh: which superface each triangle joined (the first growth, where any
+/// superface may close round a hole).
 pub fn superfaces(mesh: &Mesh, epsilon: f64) -> Result<Vec<u32>, SuperfaceError> {
     let patches = Patches::new(mesh)?;
     Ok(patches.grow(epsilon))
@@ -83,10 +90,59 @@ pub fn simplify_superfaces(
         }
     }
     let patches = Patches::new(mesh)?;
-    let owner = patches.grow(options.epsilon);
-    let count = owner.iter().map(|&s| s as usize + 1).max().unwrap_or(0);
-    let loops = boundary_loops(mesh, &owner, count);
-    let mut kept = simplify_chains(&patches, &loops, options);
+    // Superfaces may close round a hole, touching themselves at a corner first; the few whose
+    // rings then touch in ways the triangulation cannot cut cleanly (holes touching holes, a hole
+    // pinched in two) are grown again as discs. Each round only adds seeds to `discs`; the last
+    // keeps every superface a disc, which always triangulates.
+    let mut discs: HashSet<u32> = HashSet::new();
+    let mut round = 0;
+    let (count, triangles, holes) = loop {
+        let all_discs = round == MAX_ROUNDS;
+        let mut seeds: Vec<u32> = Vec::new();
+        let owner = patches.grow_with(
+            options.epsilon,
+            &|seed| all_discs || discs.contains(&seed),
+            &mut |s, p| {
+                if seeds.len() == s as usize {
+                    seeds.push(p);
+                }
+            },
+        );
+        let (triangles, failed, holes) = triangulate_all(&patches, &owner, seeds.len(), options);
+        if failed.is_empty() || all_discs {
+            break (seeds.len(), triangles, holes);
+        }
+        discs.extend(failed.iter().map(|&s| seeds[s]));
+        round += 1;
+    };
+    let out = compact(mesh, triangles);
+    let stats = SuperfaceStats {
+        triangles_in: mesh.triangle_count(),
+        triangles_out: out.triangle_count(),
+        superfaces: count,
+        holes,
+        ratio: out.triangle_count() as f64 / mesh.triangle_count().max(1) as f64,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((out, stats))
+}
+
+/// Rounds of growth before every superface is kept a disc (the Cornell box, the room and the
+/// office need at most two).
+const MAX_ROUNDS: usize = 4;
+
+/// Boundary chains simplified and every superface triangulated; with the superfaces whose
+/// triangulation failed its check (an inverted triangle, or area other than the rings'), and the
+/// number of holes.
+fn triangulate_all(
+    patches: &Patches,
+    owner: &[u32],
+    count: usize,
+    options: &SuperfaceOptions,
+) -> (Vec<[u32; 3]>, Vec<usize>, usize) {
+    let mesh = patches.mesh;
+    let loops = boundary_loops(mesh, owner, count);
+    let mut kept = simplify_chains(patches, &loops, options);
     // A ring straightened to fewer than 3 corners (a superface between only two chains) keeps three
     // corners of its hull, which span a triangle; `kept` is shared, so the superface across keeps
     // them too.
@@ -110,6 +166,8 @@ pub fn simplify_superfaces(
         kept[e.from as usize] |= kept_at[&at(e.from)];
     }
     let mut triangles = Vec::new();
+    let mut failed = Vec::new();
+    let mut holes = 0;
     for (s, rings) in loops.iter().enumerate() {
         let rings: Vec<Vec<u32>> = rings
             .iter()
@@ -121,18 +179,14 @@ pub fn simplify_superfaces(
             })
             .filter(|r| r.len() >= 3)
             .collect();
-        let tris = triangulate(&patches, s, &owner, &rings);
+        let (tris, ok) = triangulate(patches, s, owner, &rings);
+        if !ok {
+            failed.push(s);
+        }
         triangles.extend(tris);
+        holes += rings.len().saturating_sub(1);
     }
-    let out = compact(mesh, triangles);
-    let stats = SuperfaceStats {
-        triangles_in: mesh.triangle_count(),
-        triangles_out: out.triangle_count(),
-        superfaces: count,
-        ratio: out.triangle_count() as f64 / mesh.triangle_count().max(1) as f64,
-        seconds: start.elapsed().as_secs_f64(),
-    };
-    Ok((out, stats))
+    (triangles, failed, holes)
 }
 
 /// The mesh's triangles as patches: radiosity, normalised area, plane, neighbours.
@@ -237,12 +291,18 @@ impl<'a> Patches<'a> {
 
     /// Grows the superfaces; returns each triangle's superface.
     fn grow(&self, epsilon: f64) -> Vec<u32> {
-        self.grow_with(epsilon, &mut |_, _| {})
+        self.grow_with(epsilon, &|_| false, &mut |_, _| {})
     }
 
-    /// [`Patches::grow`], telling `joined(superface, patch)` of each patch as it joins, each
-    /// superface's seed first (the tests replay the merges against the paper's rule).
-    fn grow_with(&self, epsilon: f64, joined: &mut dyn FnMut(u32, u32)) -> Vec<u32> {
+    /// [`Patches::grow`], keeping the superfaces grown from the seeds `disc` picks discs, and
+    /// telling `joined(superface, patch)` of each patch as it joins, each superface's seed first (the
+    /// tests replay the merges against the paper's rule).
+    fn grow_with(
+        &self,
+        epsilon: f64,
+        disc: &dyn Fn(u32) -> bool,
+        joined: &mut dyn FnMut(u32, u32),
+    ) -> Vec<u32> {
         let c = self.change();
         let mut order: Vec<u32> = (0..self.b.len() as u32).collect();
         order.sort_by(|&x, &y| {
@@ -253,7 +313,7 @@ impl<'a> Patches<'a> {
         });
         let mut owner = vec![u32::MAX; self.b.len()];
         let mut tried = vec![u32::MAX; self.b.len()];
-        // The superface each vertex was last reached by: a superface stays a disc.
+        // The superface each vertex was last reached by, to keep a superface a disc.
         let mut reached = vec![u32::MAX; self.mesh.positions.len()];
         let mut count = 0u32;
         for seed in order {
@@ -262,6 +322,7 @@ impl<'a> Patches<'a> {
             }
             let s = count;
             count += 1;
+            let keep_disc = disc(seed);
             owner[seed as usize] = s;
             joined(s, seed);
             for v in self.mesh.triangles[seed as usize] {
@@ -276,7 +337,8 @@ impl<'a> Patches<'a> {
                     continue;
                 }
                 // A disc stays a disc when the patch joins along one edge with its third corner
-                // new, or along two: a third corner already on the superface would pinch it.
+                // new, or along two: a third corner already on the superface pinches it, and
+                // closes it round a hole.
                 let shared_edges = self.neighbours[pi]
                     .iter()
                     .filter(|&&g| owner[g as usize] == s)
@@ -285,7 +347,7 @@ impl<'a> Patches<'a> {
                     .iter()
                     .filter(|&&v| reached[v as usize] == s)
                     .count();
-                if shared_edges == 1 && shared_corners == 3 {
+                if keep_disc && shared_edges == 1 && shared_corners == 3 {
                     continue;
                 }
                 tried[pi] = s;
@@ -426,16 +488,17 @@ fn simplify_chains(
     let mut kept = vec![false; n];
     let mut boundary = vec![false; n];
     for rings in loops {
+        // Chain ends: where what lies across changes, or a vertex the superface's rings pass twice
+        // (where a hole touches the outer ring, or a ring itself).
+        let mut seen: HashMap<u32, usize> = HashMap::new();
+        for e in rings.iter().flatten() {
+            *seen.entry(e.from).or_default() += 1;
+        }
         for ring in rings {
             for e in ring {
                 boundary[e.from as usize] = true;
             }
-            // Chain ends: where what lies across changes, or a vertex the ring passes twice.
             let len = ring.len();
-            let mut seen: HashMap<u32, usize> = HashMap::new();
-            for e in ring {
-                *seen.entry(e.from).or_default() += 1;
-            }
             let mut ends: Vec<usize> = (0..len)
                 .filter(|&i| {
                     ring[(i + len - 1) % len].across != ring[i].across || seen[&ring[i].from] > 1
@@ -529,10 +592,16 @@ fn straighten(patches: &Patches, chain: &[u32], options: &SuperfaceOptions) -> V
     keep
 }
 
-/// Triangles of superface `s` from its rings (counter-clockwise outer, clockwise holes).
-fn triangulate(patches: &Patches, s: usize, owner: &[u32], rings: &[Vec<u32>]) -> Vec<[u32; 3]> {
+/// Triangles of superface `s` from its rings (counter-clockwise outer, clockwise holes), and whether
+/// they pass the check: all counter-clockwise, and covering the rings' area.
+fn triangulate(
+    patches: &Patches,
+    s: usize,
+    owner: &[u32],
+    rings: &[Vec<u32>],
+) -> (Vec<[u32; 3]>, bool) {
     let Some(f) = owner.iter().position(|&o| o as usize == s) else {
-        return Vec::new();
+        return (Vec::new(), true);
     };
     let n = patches.normal[f];
     let u = n.any_orthonormal_vector();
@@ -564,17 +633,33 @@ fn triangulate(patches: &Patches, s: usize, owner: &[u32], rings: &[Vec<u32>]) -
     let Some(outer) =
         (0..flat.len()).max_by(|&a, &b| signed(&flat[a]).total_cmp(&signed(&flat[b])))
     else {
-        return Vec::new();
+        return (Vec::new(), true);
     };
     let holes: Vec<Vec<u32>> = (0..flat.len())
         .filter(|&i| i != outer && signed(&flat[i]) < 0.0)
         .map(|i| flat[i].clone())
         .collect();
     let polygon = bridge(&points, &flat[outer], &holes);
-    ear_clip(&points, &polygon)
+    let tris = ear_clip(&points, &polygon);
+    // The check: every triangle counter-clockwise (exactly), and their area the rings' area.
+    let twice = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| points[i as usize]);
+        (b - a).perp_dot(c - a)
+    };
+    let want: f64 = signed(&flat[outer]) + holes.iter().map(|h| signed(h)).sum::<f64>();
+    let got: f64 = tris.iter().map(|t| 0.5 * twice(t).abs()).sum();
+    let ok = tris.iter().all(|t| {
+        let [a, b, c] = t.map(|i| robust::Coord {
+            x: points[i as usize].x,
+            y: points[i as usize].y,
+        });
+        robust::orient2d(a, b, c) > 0.0
+    }) && (got - want).abs() <= 1e-9 * want.abs();
+    let tris = tris
         .into_iter()
         .map(|t| t.map(|i| ids[i as usize]))
-        .collect()
+        .collect();
+    (tris, ok)
 }
 
 /// The output mesh: only the vertices the triangles use, with their colours.
@@ -674,7 +759,8 @@ mod tests {
 
         for epsilon in [0.02, 0.1, 0.8] {
             let mut log = Vec::new();
-            let owner = patches.grow_with(epsilon, &mut |s, p| log.push((s, p as usize)));
+            let owner =
+                patches.grow_with(epsilon, &|_| false, &mut |s, p| log.push((s, p as usize)));
             let mut members: HashMap<u32, Vec<usize>> = HashMap::new();
             let mut state: HashMap<u32, (DVec3, DVec3, f64)> = HashMap::new();
             let mut merges = 0;
