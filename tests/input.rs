@@ -291,7 +291,8 @@ fn load_names_unknown_formats_and_missing_files() {
     assert!(e.message.contains("degenerate"), "{e}");
 }
 
-/// tobj leaves unreferenced vertices out before vunify sees them; they are still counted as unused.
+/// The OBJ reader leaves unreferenced vertices out before the cleaning sees them; they are still
+/// counted as unused.
 #[test]
 fn unused_vertices_are_counted_even_when_the_reader_skips_them() {
     let raw = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n").unwrap();

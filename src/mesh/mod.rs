@@ -34,8 +34,9 @@ pub struct Mesh {
     pub normals: Option<Vec<Vec3>>,
     pub triangles: Vec<[u32; 3]>,
     pub parts: Vec<Part>,
-    /// Vertices of the file that no face uses and that the reader left out before `positions` (tobj
-    /// keeps only referenced vertices); [`clean`] counts them with the unused ones it drops itself.
+    /// Vertices of the file that no face uses and that the reader left out before `positions` (the
+    /// OBJ reader keeps only referenced vertices); [`clean`] counts them with the unused ones it
+    /// drops itself.
     pub unreferenced_vertices: usize,
     /// The faces are seen only from the side they wind counter-clockwise around, and the winding is
     /// meant (lit meshes from `vunify radiosity`, seen from inside a room): the runtime's back-face
@@ -207,7 +208,7 @@ impl Format {
 /// The result is raw: not welded or cleaned (see [`clean`]).
 pub fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh, InputError> {
     // The parsers are written not to panic; this is a last line of defence for the third-party
-    // crates (tobj, ply-rs-bw) under them, so that no input can take the program down.
+    // crate (ply-rs-bw) under the PLY reader, so that no input can take the program down.
     let result = std::panic::catch_unwind(|| match format {
         Format::Obj => obj::parse(bytes, path),
         Format::Ply => ply::parse(bytes, path),
