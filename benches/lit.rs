@@ -127,6 +127,7 @@ fn main() {
             epsilon: e.parse().expect("ε"),
             delta: d.parse().expect("δ"),
             distance: 0.0,
+            discs: false,
         };
         let (ours, _) = simplify_superfaces(&lit, &options).expect("superfaces");
         let n = ours.triangle_count();

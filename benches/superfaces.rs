@@ -22,6 +22,7 @@ fn ratio(mesh: &Mesh, epsilon: f64, delta: f64) -> (f64, f64) {
         epsilon,
         delta,
         distance: 0.0,
+        discs: false,
     };
     let (_, s) = simplify_superfaces(mesh, &options).expect("a lit mesh");
     (s.ratio, s.seconds)

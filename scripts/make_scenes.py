@@ -133,15 +133,30 @@ def box(w, name, material, lo, hi, bottom=False):
         w.polygon(f"{name}_{side}", material, away(c, centre))
 
 
-def shell(w, size, wall="wall", floor="floor", ceiling="ceiling"):
-    """A room's floor, ceiling and four walls, facing in."""
+def shell(w, size, wall="wall", floor="floor", ceiling="ceiling", window=None):
+    """A room's floor, ceiling and four walls, facing in. `window` ((y0, y1), (z0, z1)) cuts an
+    opening in the west wall (x = 0), which is then four rectangles round it, and fills it with an
+    emitting pane in the wall's plane: a pane in front of a whole wall would leave the wall behind
+    it unlit, and the vertices round the pane's outline dark."""
     x, y, z = size
     centre = (x / 2, y / 2, z / 2)
     w.polygon("floor", floor, facing([(0, 0, 0), (x, 0, 0), (x, 0, z), (0, 0, z)], centre))
     w.polygon("ceiling", ceiling, facing([(0, y, 0), (x, y, 0), (x, y, z), (0, y, z)], centre))
     w.polygon("wall_south", wall, facing([(0, 0, 0), (x, 0, 0), (x, y, 0), (0, y, 0)], centre))
     w.polygon("wall_north", wall, facing([(0, 0, z), (x, 0, z), (x, y, z), (0, y, z)], centre))
-    w.polygon("wall_west", wall, facing([(0, 0, 0), (0, y, 0), (0, y, z), (0, 0, z)], centre))
+
+    def west(name, material, y0, y1, z0, z1):
+        w.polygon(name, material, facing([(0, y0, z0), (0, y1, z0), (0, y1, z1), (0, y0, z1)], centre))
+
+    if window is None:
+        west("wall_west", wall, 0, y, 0, z)
+    else:
+        (y0, y1), (z0, z1) = window
+        west("wall_west_below", wall, 0, y0, 0, z)
+        west("wall_west_above", wall, y1, y, 0, z)
+        west("wall_west_left", wall, y0, y1, 0, z0)
+        west("wall_west_right", wall, y0, y1, z1, z)
+        west("window", "window", y0, y1, z0, z1)
     w.polygon("wall_east", wall, facing([(x, 0, 0), (x, y, 0), (x, y, z), (x, 0, z)], centre))
 
 
@@ -209,7 +224,7 @@ def room(out):
         "room.mtl",
     )
     size = (5.0, 3.0, 4.0)
-    shell(w, size)
+    shell(w, size, window=((1.0, 2.2), (1.2, 2.8)))
     table(w, "table", 1.8, 1.5, 1.4, 0.9, 0.75, "wood")
     chair(w, "chair1", 2.0, 2.45, "fabric")
     chair(w, "chair2", 2.5, 0.95, "fabric", back_at_high_z=False)
@@ -218,8 +233,6 @@ def room(out):
         box(w, f"shelf_board{i}", "shelf", (4.2, h, 0.6), (4.55, h + 0.03, 2.0), bottom=True)
     lamp = [(2.2, 2.995, 1.7), (2.8, 2.995, 1.7), (2.8, 2.995, 2.3), (2.2, 2.995, 2.3)]
     w.polygon("ceiling_light", "lamp", facing(lamp, (2.5, 0.0, 2.0)))
-    window = [(0.005, 1.0, 1.2), (0.005, 2.2, 1.2), (0.005, 2.2, 2.8), (0.005, 1.0, 2.8)]
-    w.polygon("window", "window", facing(window, (2.5, 1.5, 2.0)))
     save_furnished(w, out, "room")
 
 

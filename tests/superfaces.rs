@@ -51,6 +51,7 @@ fn options(epsilon: f64, delta: f64) -> SuperfaceOptions {
         epsilon,
         delta,
         distance: 0.0,
+        discs: false,
     }
 }
 

@@ -24,6 +24,10 @@ pub struct SuperfacesArgs {
     /// straight line).
     #[arg(long, default_value_t = 0.0)]
     distance: f64,
+    /// Keep every superface a disc: a superface does not close round another, so no hole is
+    /// bridged (the paper lets them; more triangles, but smoother gradients on the bundled scenes).
+    #[arg(long)]
+    discs: bool,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -41,6 +45,7 @@ pub fn run(args: SuperfacesArgs) -> Result<()> {
         epsilon: args.epsilon,
         delta: args.delta,
         distance: args.distance,
+        discs: args.discs,
     };
     let (out, s) = simplify_superfaces(&lit, &options)
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;

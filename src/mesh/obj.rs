@@ -204,7 +204,8 @@ impl Piece {
                     i if i < 0 => {
                         let at = counts[k] as i64 + i;
                         if at < 0 {
-                            self.reaching_back.push((line, k, at.unsigned_abs() as usize, i));
+                            self.reaching_back
+                                .push((line, k, at.unsigned_abs() as usize, i));
                         }
                         Ref::Rel(at)
                     }

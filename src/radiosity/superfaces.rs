@@ -41,6 +41,9 @@ pub struct SuperfaceOptions {
     /// The largest distance of a removed boundary vertex from its new edge, as a share of the
     /// mesh's diagonal (0: only vertices on a straight line go).
     pub distance: f64,
+    /// Keep every superface a disc (no holes): more triangles, but no long triangles bridging a
+    /// hole's colours to the outer ring's (about 3–5 dB of PSNR on the bundled scenes).
+    pub discs: bool,
 }
 
 /// What a run did.
@@ -97,7 +100,7 @@ pub fn simplify_superfaces(
     let mut discs: HashSet<u32> = HashSet::new();
     let mut round = 0;
     let (count, triangles, holes) = loop {
-        let all_discs = round == MAX_ROUNDS;
+        let all_discs = options.discs || round == MAX_ROUNDS;
         let mut seeds: Vec<u32> = Vec::new();
         let owner = patches.grow_with(
             options.epsilon,
