@@ -10,6 +10,17 @@ use std::path::Path;
 /// never leaves a half-written file. Temporary files for `path` that a killed process left behind
 /// (`.NAME.tmp-PID` of a process no longer running) are removed first.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomic_checked(path, || bytes.to_vec(), || Ok(()))
+}
+
+/// [`write_atomic`] of the bytes `make` returns, with `check` run alongside making and writing them
+/// (on another thread): the file takes its place only if the check passes, so a slow check (a
+/// tree's consistency) costs no time of its own.
+pub fn write_atomic_checked<B: AsRef<[u8]>>(
+    path: &Path,
+    make: impl FnOnce() -> B + Send,
+    check: impl FnOnce() -> std::io::Result<()> + Send,
+) -> std::io::Result<()> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -20,12 +31,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let prefix = format!(".{}.tmp-", name.to_string_lossy());
     remove_stale_temporaries(dir, &prefix);
     let tmp = dir.join(format!("{prefix}{}", std::process::id()));
-    let result = (|| {
+    let (checked, written) = rayon::join(check, || -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
+        f.write_all(make().as_ref())?;
+        f.sync_all()
+    });
+    let result = checked
+        .and(written)
+        .and_then(|()| std::fs::rename(&tmp, path));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

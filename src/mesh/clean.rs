@@ -1,7 +1,7 @@
 //! Welding and clean-up: what every loader's raw output goes through before building.
 
 use super::{Mesh, Part};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::collections::hash_map::Entry;
 
 /// How [`clean`] treats its input.
@@ -45,7 +45,8 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
     // scene, and keep their own colours).
     let mut remap: Vec<u32> = (0..n as u32).collect();
     if options.weld {
-        let mut first: HashMap<[u32; 6], u32> = HashMap::with_capacity(n);
+        let mut first: FxHashMap<[u32; 6], u32> =
+            FxHashMap::with_capacity_and_hasher(n, Default::default());
         for (i, p) in mesh.positions.iter().enumerate() {
             let bits = |v: glam::Vec3| (v + glam::Vec3::ZERO).to_array().map(f32::to_bits); // + 0.0 turns -0.0 into 0.0
             let [x, y, z] = bits(*p);
@@ -64,25 +65,28 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
     }
 
     // 2. Faces: drop degenerate and duplicate ones, part by part.
-    let mut seen: std::collections::HashSet<[u32; 3]> =
-        std::collections::HashSet::with_capacity(mesh.triangles.len());
+    let remapped: Vec<[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| remap[v as usize]))
+        .collect();
+    let degenerate: Vec<bool> = remapped
+        .iter()
+        .map(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+        .collect();
+    let duplicate = duplicates(&remapped, &degenerate, n);
     let mut triangles = Vec::with_capacity(mesh.triangles.len());
     let mut parts = Vec::with_capacity(mesh.parts.len());
     for part in &mesh.parts {
         let start = triangles.len() as u32;
-        for t in &mesh.triangles[part.triangles.start as usize..part.triangles.end as usize] {
-            let t = t.map(|v| remap[v as usize]);
-            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+        for f in part.triangles.start as usize..part.triangles.end as usize {
+            if degenerate[f] {
                 report.degenerate_faces += 1;
-                continue;
-            }
-            let mut key = t;
-            key.sort_unstable();
-            if !seen.insert(key) {
+            } else if duplicate[f] {
                 report.duplicate_faces += 1;
-                continue;
+            } else {
+                triangles.push(remapped[f]);
             }
-            triangles.push(t);
         }
         let end = triangles.len() as u32;
         if end > start {
@@ -92,7 +96,6 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
             });
         }
     }
-
     // 3. Compact: keep used vertices in their original order.
     let mut new_index = vec![u32::MAX; n];
     for t in &triangles {
@@ -126,6 +129,50 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
     (out, report)
 }
 
+/// Which faces repeat the three vertices of an earlier face (either orientation), among those not
+/// `skip`ped. Faces are bucketed by their smallest vertex (a counting sort, in face order) and each
+/// bucket sorted by the other two: linear but for the buckets' small sorts, where a hash set of
+/// every face took most of the clean-up's time.
+fn duplicates(faces: &[[u32; 3]], skip: &[bool], vertices: usize) -> Vec<bool> {
+    let key = |t: [u32; 3]| {
+        let mut k = t;
+        k.sort_unstable();
+        k
+    };
+    let mut start = vec![0u32; vertices + 1];
+    for (t, _) in faces.iter().zip(skip).filter(|(_, s)| !**s) {
+        start[key(*t)[0] as usize + 1] += 1;
+    }
+    for v in 0..vertices {
+        start[v + 1] += start[v];
+    }
+    let mut order = vec![0u32; start[vertices] as usize];
+    let mut fill = start.clone();
+    for (f, t) in faces.iter().enumerate().filter(|(f, _)| !skip[*f]) {
+        let k = key(*t)[0] as usize;
+        order[fill[k] as usize] = f as u32;
+        fill[k] += 1;
+    }
+    let mut duplicate = vec![false; faces.len()];
+    for v in 0..vertices {
+        let bucket = &mut order[start[v] as usize..start[v + 1] as usize];
+        if bucket.len() < 2 {
+            continue;
+        }
+        // By the other two vertices, then face order: the first of equal faces comes first.
+        bucket.sort_unstable_by_key(|&f| {
+            let k = key(faces[f as usize]);
+            (k[1], k[2], f)
+        });
+        for w in bucket.windows(2) {
+            if key(faces[w[0] as usize]) == key(faces[w[1] as usize]) {
+                duplicate[w[1] as usize] = true;
+            }
+        }
+    }
+    duplicate
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -137,6 +184,26 @@ mod tests {
     ///  |  /   |          repeats face 0 in the other orientation.
     ///  0      3
     /// ```
+    /// Faces over the same three vertices, in any order, are duplicates of the first of them; a
+    /// skipped face is neither.
+    #[test]
+    fn duplicates_are_found_in_any_order() {
+        let faces = [
+            [0, 1, 2],
+            [2, 1, 0],
+            [1, 2, 0],
+            [0, 2, 3],
+            [3, 0, 2],
+            [0, 1, 3],
+            [4, 4, 4],
+        ];
+        let skip = [false, false, false, false, false, false, true];
+        assert_eq!(
+            duplicates(&faces, &skip, 5),
+            [false, true, true, false, true, false, false]
+        );
+    }
+
     #[test]
     fn welds_and_drops() {
         let p = vec![

@@ -108,13 +108,19 @@ pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
 /// crash leaves either the old file or the new one, never half of one. A tree that the reader would
 /// reject ([`check`](super::check)) is not written: that would be a bug, and it is reported as one.
 pub fn write(tree: &VertexTree, path: &Path) -> std::io::Result<()> {
-    super::check(tree).map_err(|problem| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!("the tree is inconsistent, so it was not written (a bug in vunify): {problem}"),
-        )
-    })?;
-    crate::export::write_atomic(path, &to_bytes(tree))
+    // The consistency check runs alongside the writing; an inconsistent tree never takes the
+    // file's place.
+    let check = || {
+        super::check(tree).map_err(|problem| {
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!(
+                    "the tree is inconsistent, so it was not written (a bug in vunify): {problem}"
+                ),
+            )
+        })
+    };
+    crate::export::write_atomic_checked(path, || to_bytes(tree), check)
 }
 
 pub fn read(path: &Path) -> Result<VertexTree, FormatError> {
