@@ -9,6 +9,7 @@ mod error;
 mod obj;
 mod off;
 mod ply;
+mod ply_binary;
 
 pub use clean::{CleanOptions, CleanReport, clean};
 pub use error::{InputError, Location};

@@ -1,4 +1,5 @@
-//! Stanford PLY (ASCII, binary little- and big-endian) through ply-rs-bw.
+//! Stanford PLY (ASCII, binary little- and big-endian): the header through ply-rs-bw, an ASCII
+//! payload too, a binary payload by `ply_binary`.
 //!
 //! Before the crate sees the payload, the header's element counts are checked against the file's size,
 //! so a truncated binary file is reported with the byte offset where its data runs out, and no count
@@ -7,7 +8,9 @@
 use super::{InputError, Location, Mesh};
 use glam::Vec3;
 use ply_rs_bw::parser::Parser;
-use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property, PropertyType, ScalarType};
+use ply_rs_bw::ply::{
+    DefaultElement, ElementDef, Encoding, Header, Property, PropertyType, ScalarType,
+};
 use std::path::Path;
 
 fn scalar_size(t: ScalarType) -> u64 {
@@ -140,14 +143,19 @@ fn check_declarations(header: &[u8], path: &Path) -> Result<(), InputError> {
 }
 
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
+    parse_with(bytes, path, true)
+}
+
+/// [`parse`], a binary payload read by `ply_binary` when `direct`, else by ply-rs-bw (the tests
+/// hold the two to the same meshes).
+/// The header, checked, and its length in bytes.
+fn read_header(bytes: &[u8], path: &Path) -> Result<(Header, usize), InputError> {
     if !bytes.starts_with(b"ply") {
         return Err(InputError::byte(path, 0, "missing the 'ply' magic line"));
     }
     let header_len = find_header_end(bytes)
         .ok_or_else(|| InputError::whole(path, "no 'end_header' line: the header is truncated"))?;
-    let header_lines = bytes[..header_len].iter().filter(|&&b| b == b'\n').count();
-    let parser = Parser::<DefaultElement>::new();
-    let header = parser
+    let header = Parser::<DefaultElement>::new()
         .read_ply_header(&mut &bytes[..header_len])
         .map_err(|e| match e.line() {
             Some(line) => {
@@ -156,6 +164,13 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
             None => InputError::whole(path, format!("bad PLY header: {}", first_line(&e))),
         })?;
     check_declarations(&bytes[..header_len], path)?;
+    Ok((header, header_len))
+}
+
+fn parse_with(bytes: &[u8], path: &Path, direct: bool) -> Result<Mesh, InputError> {
+    let (header, header_len) = read_header(bytes, path)?;
+    let header_lines = bytes[..header_len].iter().filter(|&&b| b == b'\n').count();
+    let parser = Parser::<DefaultElement>::new();
 
     let elements: Vec<&ElementDef> = header.elements.values().collect();
     let binary = header.encoding != Encoding::Ascii;
@@ -168,6 +183,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
         payload_len,
         path,
     )?;
+    if binary && direct {
+        let big_endian = header.encoding == Encoding::BinaryBigEndian;
+        let mesh = super::ply_binary::parse(bytes, header_len, &elements, big_endian, path)?;
+        return Ok(Mesh {
+            one_sided: one_sided(&header.comments),
+            ..mesh
+        });
+    }
     let locate = |element: usize, k: usize| -> Location {
         match starts[element] {
             Some((base, _, true)) if !binary => Location::Line((base + k as u64 + 1) as usize),
@@ -256,12 +279,16 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
     Ok(Mesh {
         colors: has_colors.then_some(colors),
         normals: has_normals.then_some(normals),
-        one_sided: header
-            .comments
-            .iter()
-            .any(|c| c.trim_start().starts_with(crate::mesh::ONE_SIDED_COMMENT)),
+        one_sided: one_sided(&header.comments),
         ..Mesh::from_triangles(positions, triangles)
     })
+}
+
+/// Whether the header's comments mark the mesh one-sided (a lit mesh from `vunify radiosity`).
+fn one_sided(comments: &[String]) -> bool {
+    comments
+        .iter()
+        .any(|c| c.trim_start().starts_with(crate::mesh::ONE_SIDED_COMMENT))
 }
 
 /// Where record k of each element starts, when it can be known without reading: `(first line, 1,
@@ -355,4 +382,131 @@ fn fan_triangles(
         }
     }
     Ok(triangles)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A binary PLY by hand: vertices with x y z as float or double, colours as uchar, normals, an
+    /// extra scalar; faces with an extra list before their indices (uchar count, int or uint
+    /// indices, polygons of 3–5 corners); an element of lists after them; either byte order.
+    fn binary_ply(seed: u64, big_endian: bool) -> Vec<u8> {
+        let mut state = seed | 1;
+        let mut random = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let (nv, nf) = (5 + random() % 40, 1 + random() % 60);
+        let double = random() % 2 == 0;
+        let order = if big_endian { "big" } else { "little" };
+        let mut out = format!(
+            "ply\nformat binary_{order}_endian 1.0\ncomment one-sided\nelement vertex {nv}\n\
+             property {t} x\nproperty {t} y\nproperty {t} z\nproperty float quality\n\
+             property uchar red\nproperty uchar green\nproperty uchar blue\n\
+             property float nx\nproperty float ny\nproperty float nz\n\
+             element face {nf}\nproperty list uchar short tags\nproperty list uchar uint vertex_indices\n\
+             element extra 2\nproperty list ushort float values\nend_header\n",
+            t = if double { "double" } else { "float" }
+        )
+        .into_bytes();
+        let put = |out: &mut Vec<u8>, mut b: Vec<u8>| {
+            if big_endian {
+                b.reverse();
+            }
+            out.extend(b);
+        };
+        for _ in 0..nv {
+            for _ in 0..3 {
+                let x = (random() % 2000) as f64 / 7.0 - 100.0;
+                if double {
+                    put(&mut out, x.to_le_bytes().to_vec());
+                } else {
+                    put(&mut out, (x as f32).to_le_bytes().to_vec());
+                }
+            }
+            put(&mut out, 0.5f32.to_le_bytes().to_vec());
+            for _ in 0..3 {
+                out.push((random() % 256) as u8);
+            }
+            for _ in 0..3 {
+                put(
+                    &mut out,
+                    ((random() % 200) as f32 / 100.0 - 1.0)
+                        .to_le_bytes()
+                        .to_vec(),
+                );
+            }
+        }
+        for _ in 0..nf {
+            let tags = (random() % 3) as u8;
+            out.push(tags);
+            for _ in 0..tags {
+                put(&mut out, 7i16.to_le_bytes().to_vec());
+            }
+            let corners = 3 + (random() % 3) as u8;
+            out.push(corners);
+            for _ in 0..corners {
+                put(&mut out, ((random() % nv) as u32).to_le_bytes().to_vec());
+            }
+        }
+        for _ in 0..2 {
+            put(&mut out, 2u16.to_le_bytes().to_vec());
+            put(&mut out, 1.5f32.to_le_bytes().to_vec());
+            put(&mut out, 2.5f32.to_le_bytes().to_vec());
+        }
+        out
+    }
+
+    /// The direct binary reader makes the mesh ply-rs-bw makes, in either byte order.
+    #[test]
+    fn the_direct_reader_agrees_with_ply_rs() {
+        for seed in 0..40u64 {
+            let bytes = binary_ply(seed * 7919 + 1, seed % 2 == 0);
+            let path = Path::new("r.ply");
+            let direct = parse_with(&bytes, path, true).unwrap();
+            let through_crate = parse_with(&bytes, path, false).unwrap();
+            assert_eq!(direct.positions, through_crate.positions, "seed {seed}");
+            assert_eq!(direct.triangles, through_crate.triangles, "seed {seed}");
+            assert_eq!(direct.colors, through_crate.colors, "seed {seed}");
+            assert_eq!(direct.normals, through_crate.normals, "seed {seed}");
+            assert!(direct.one_sided && through_crate.one_sided);
+        }
+    }
+
+    /// A face index out of range, a non-finite coordinate and a cut-off payload are errors with
+    /// the byte where the record starts (or where the file ends).
+    #[test]
+    fn direct_reader_errors_name_the_byte() {
+        let header = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+                      property float y\nproperty float z\nelement face 1\n\
+                      property list uchar int vertex_indices\nend_header\n";
+        let h = header.len();
+        let mut bytes = header.as_bytes().to_vec();
+        for v in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
+            bytes.extend(v.to_le_bytes());
+        }
+        bytes.push(3);
+        for i in [0i32, 1, 3] {
+            bytes.extend(i.to_le_bytes());
+        }
+        let e = parse(&bytes, Path::new("r.ply")).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("byte {}", h + 36)) && e.contains("vertex index 3"),
+            "{e}"
+        );
+        let mut nan = bytes.clone();
+        nan[h + 16..h + 20].copy_from_slice(&f32::NAN.to_le_bytes());
+        let e = parse(&nan, Path::new("r.ply")).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("byte {}", h + 12)) && e.contains("'y'"),
+            "{e}"
+        );
+        let e = parse(&bytes[..bytes.len() - 2], Path::new("r.ply"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("truncated") || e.contains("past the end"), "{e}");
+    }
 }
