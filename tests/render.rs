@@ -483,15 +483,8 @@ const ROOM_PATH: &str = r#"{"keyframes":[
 /// cut into its wall, keeps its outline.
 #[test]
 fn a_lit_room_through_the_tree() {
-    let options = vunify::radiosity::RadiosityOptions {
-        unshot: 0.01,
-        element_size: 0.05,
-        min_element_size: 0.01,
-        ..Default::default()
-    };
     lit_scene_through_the_tree(
         "room",
-        &options,
         ROOM_PATH,
         &[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0],
     );
@@ -510,29 +503,20 @@ const CORNELL_PATH: &str = r#"{"keyframes":[
 /// near sides were culled as facing away (24.9 dB at the worst frame).
 #[test]
 fn the_lit_cornell_box_through_the_tree() {
-    let options = vunify::radiosity::RadiosityOptions {
+    lit_scene_through_the_tree("cornell", CORNELL_PATH, &[0.0, 0.33, 1.0, 2.0, 3.0, 4.0]);
+}
+
+/// Solves bundled scene `name` (coarser than the default: to 1 % unshot, elements of 5 % of the
+/// diagonal, down to 1 %), builds its lit mesh's tree and flies `path`: at each of `times`, the
+/// level of detail at τ = 1 px is at least [`LIT_PSNR_DB`] from the full lit mesh with under half
+/// its triangles.
+fn lit_scene_through_the_tree(name: &str, path: &str, times: &[f32]) {
+    let options = &vunify::radiosity::RadiosityOptions {
         unshot: 0.01,
         element_size: 0.05,
         min_element_size: 0.01,
         ..Default::default()
     };
-    lit_scene_through_the_tree(
-        "cornell",
-        &options,
-        CORNELL_PATH,
-        &[0.0, 0.33, 1.0, 2.0, 3.0, 4.0],
-    );
-}
-
-/// Solves bundled scene `name`, builds its lit mesh's tree and flies `path`: at each of `times`,
-/// the level of detail at τ = 1 px is at least [`LIT_PSNR_DB`] from the full lit mesh with under
-/// half its triangles.
-fn lit_scene_through_the_tree(
-    name: &str,
-    options: &vunify::radiosity::RadiosityOptions,
-    path: &str,
-    times: &[f32],
-) {
     let Some(gpu) = gpu() else { return };
     let dir = std::env::temp_dir().join(format!("vunify-lit-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
