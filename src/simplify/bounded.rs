@@ -14,7 +14,7 @@
 //! Both hold for every output triangle and every input triangle after every accepted collapse, so
 //! they hold for the result. See docs/ENVELOPES.md.
 
-use crate::measure::{Bvh, Triangles, within};
+use crate::measure::{Bvh, Triangles, within, within_by};
 use crate::mesh::Mesh;
 use crate::simplify::DistanceError;
 use crate::simplify::quadric::Quadric;
@@ -120,14 +120,16 @@ pub fn simplify_bounded(
         .collect();
     let mut w = Work::new(mesh);
     let mut queue = BinaryHeap::new();
-    for f in 0..w.faces.len() {
-        let t = w.faces[f];
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            if a < b || !w.has_edge(b, a) {
-                queue.push(w.candidate(a, b));
-            }
-        }
+    // Every edge once, boundary edges included (their one face may name them either way round).
+    let mut edges: Vec<(u32, u32)> = w
+        .faces
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    for (a, b) in edges {
+        queue.push(w.candidate(a, b));
     }
     let mut stats = BoundedStats::default();
     while w.live_faces > options.target_triangles {
@@ -220,10 +222,6 @@ impl Work {
             .count()
     }
 
-    fn has_edge(&self, a: u32, b: u32) -> bool {
-        self.faces_with_edge(a, b) > 0
-    }
-
     fn neighbours(&self, v: u32) -> Vec<u32> {
         let mut n: Vec<u32> = self
             .live_around(v)
@@ -299,10 +297,17 @@ impl Work {
         if keys.windows(2).any(|w| w[0] == w[1]) {
             return None;
         }
-        // The original triangles to re-certify.
+        // The original triangles to re-certify: those whose proof rests on a face the collapse
+        // changes (a face's list may still name originals that have since left it).
+        let (covers, certified_by) = (&self.covers, &self.certified_by);
         let mut affected: Vec<u32> = touched
             .iter()
-            .flat_map(|&f| self.covers[f as usize].iter().copied())
+            .flat_map(|&f| {
+                covers[f as usize]
+                    .iter()
+                    .copied()
+                    .filter(move |&o| certified_by[o as usize].contains(&f))
+            })
             .collect();
         affected.sort_unstable();
         affected.dedup();
@@ -348,8 +353,9 @@ impl Work {
     }
 
     /// Checks that each affected original triangle is within `eps` of the faces it may rely on
-    /// after the collapse — its certifying faces the collapse does not touch, and the new ring —
-    /// and returns, for each, the faces it is certified by from now on. `None` if any fails.
+    /// after the collapse — its certifying faces the collapse does not touch, the new ring, and the
+    /// faces just beyond the ring — and returns, for each, the faces its proof used, which it is
+    /// certified by from now on. `None` if any fails.
     fn recertify(
         &self,
         affected: &[u32],
@@ -360,6 +366,26 @@ impl Work {
         originals: &[[DVec3; 3]],
     ) -> Option<Vec<Vec<u32>>> {
         let mut out = Vec::with_capacity(affected.len());
+        let (mut faces, mut geometry, mut witnesses) = (Vec::new(), Vec::new(), Vec::new());
+        // The untouched faces around the ring: an original near the ring's rim may have part of
+        // its proof there, though its old proof did not need them.
+        let mut beyond: Vec<u32> = kept
+            .iter()
+            .flat_map(|&f| self.faces[f as usize])
+            .flat_map(|v| self.live_around(v))
+            .filter(|f| touched.binary_search(f).is_err())
+            .collect();
+        beyond.sort_unstable();
+        beyond.dedup();
+        let beyond: Vec<(u32, [DVec3; 3])> = beyond
+            .into_iter()
+            .map(|f| {
+                (
+                    f,
+                    self.faces[f as usize].map(|v| self.positions[v as usize]),
+                )
+            })
+            .collect();
         for &o in affected {
             // The faces near this triangle: one farther than eps from its box cannot hold any of
             // its nearest points within eps, so it is left out of the set.
@@ -368,8 +394,8 @@ impl Work {
                 let (rlo, rhi) = bounds(r);
                 (rlo - hi).max(lo - rhi).max(DVec3::ZERO).length() <= eps
             };
-            let mut faces = Vec::new();
-            let mut geometry = Vec::new();
+            faces.clear();
+            geometry.clear();
             for &f in &self.certified_by[o as usize] {
                 if !self.alive[f as usize] || touched.contains(&f) {
                     continue;
@@ -386,15 +412,28 @@ impl Work {
                     geometry.push(*r);
                 }
             }
-            if !within(
+            for (f, g) in &beyond {
+                if near(g) && !faces.contains(f) {
+                    faces.push(*f);
+                    geometry.push(*g);
+                }
+            }
+            witnesses.clear();
+            if !within_by(
                 &[originals[o as usize]],
                 &Triangles(&geometry),
                 eps,
                 CHECK_BUDGET,
+                &mut witnesses,
             ) {
                 return None;
             }
-            out.push(faces);
+            // From now on it relies on the faces the proof used, not all those near it: fewer
+            // links, so fewer re-certifications when a face changes.
+            let mut support: Vec<u32> = witnesses.iter().map(|&i| faces[i as usize]).collect();
+            support.sort_unstable();
+            support.dedup();
+            out.push(support);
         }
         Some(out)
     }
@@ -435,15 +474,14 @@ impl Work {
         self.quadric[a as usize] += qb;
         self.version[a as usize] += 1;
         self.version[b as usize] += 1;
-        // Certifying sets: drop the old links of the affected originals, then add the new ones.
+        // Certifying sets. The faces an affected original now relies on are untouched faces it
+        // relied on before (whose lists still name it: lists are only ever cleared when their face
+        // changes) and ring faces, whose lists were cleared above.
         for (&o, faces) in affected.iter().zip(support) {
-            for &f in &self.certified_by[o as usize] {
-                if let Some(list) = self.covers.get_mut(f as usize) {
-                    list.retain(|&x| x != o);
-                }
-            }
             for &f in &faces {
-                self.covers[f as usize].push(o);
+                if kept.binary_search(&f).is_ok() {
+                    self.covers[f as usize].push(o);
+                }
             }
             self.certified_by[o as usize] = faces;
         }
