@@ -15,14 +15,17 @@
 //!   corner: `max over the piece of d(p, B) ≤ min over candidates t of max over corners of d(c, t)`.
 //!   The candidates are the triangles of B nearest to the piece's corners and centroid, and its
 //!   parent's. Where one triangle of B is nearest to the whole piece, this bound is exact.
+//! - Before a piece is split, the **prism partition** of `partition.rs` is tried: the piece cut
+//!   along the prisms of B's triangles near it, each part bounded against its own triangle. Exact
+//!   where the piece lies over several of B's faces at once (a flat region), which splitting only
+//!   approaches.
 //! - The piece with the largest upper bound is split until that bound is within the tolerance of the
 //!   lower bound: `upper − lower ≤ max(relative · lower, absolute · diagonal)`. Pieces far from the
 //!   maximum are never split, so real meshes converge after few subdivisions.
 //!
-//! Where the nearest triangle of B changes inside a piece (along B's edges), the bound overstates
-//! by up to the piece's size times the angle between the triangles, and pieces there are split more.
-//! When the distance is 0 and B's edges cross A's faces (a square against its other triangulation),
-//! that is the only term left, so the absolute floor (10⁻⁵ of the diagonal by default) ends it.
+//! Across a convex crease of B, where the nearest point is on an edge, the bound overstates by up to
+//! the piece's size times the angle between the triangles, and pieces there are split more; the
+//! absolute floor (10⁻⁵ of the diagonal by default) ends the search where nothing else would.
 
 use super::{Bvh, partition};
 use crate::mesh::Mesh;
@@ -359,7 +362,7 @@ fn piece(
 const PARTITION_CANDIDATES: usize = 4096;
 
 /// Parts a prism partition may carry at once before it gives up.
-const PARTITION_PARTS: usize = 4096;
+const PARTITION_PARTS: usize = 256;
 
 /// What a certified check measures distances to: the nearest triangle to a point, and the triangles
 /// themselves, in `f64`.
