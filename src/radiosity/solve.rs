@@ -88,6 +88,9 @@ const EMITTER_LEVEL: u32 = 2;
 struct Solver<'a> {
     scene: &'a Scene,
     occluders: Bvh,
+    /// Each occluder's plane (unit normal, offset), in the hierarchy's order: a segment whose ends
+    /// are both strictly on one side cannot cross it, which settles most tests with two dot products.
+    occluder_planes: Vec<(DVec3, f64)>,
     elements: Elements,
     patches: Elements,
     patch_area: Vec<f64>,
@@ -179,9 +182,18 @@ impl<'a> Solver<'a> {
         let patch_area = (0..patches.triangles.len())
             .map(|t| patches.area(t))
             .collect();
+        let occluders = Bvh::new(&positions, &triangles);
+        let occluder_planes = (0..occluders.len())
+            .map(|i| {
+                let [a, b, c] = occluders.triangle64(i);
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                (n, n.dot(a))
+            })
+            .collect();
         Solver {
             scene,
-            occluders: Bvh::new(&positions, &triangles),
+            occluders,
+            occluder_planes,
             elements,
             patches,
             patch_area,
@@ -299,6 +311,13 @@ impl<'a> Solver<'a> {
     fn visible(&self, a: DVec3, b: DVec3) -> bool {
         let (lo, hi) = (a.min(b), a.max(b));
         !self.occluders.any_overlapping(lo, hi, |i| {
+            let (n, d) = self.occluder_planes[i];
+            let (sa, sb) = (n.dot(a) - d, n.dot(b) - d);
+            // Both ends strictly on one side, by more than rounding: no crossing.
+            let slack = 1e-12 * (a.abs().max_element() + b.abs().max_element() + d.abs());
+            if (sa > slack && sb > slack) || (sa < -slack && sb < -slack) {
+                return false;
+            }
             segment_hits(a, b, &self.occluders.triangle64(i))
         })
     }
