@@ -31,6 +31,19 @@ def write_obj(path, vertices, faces, comment):
     os.replace(tmp, path)
 
 
+def tube_faces(rows, around):
+    """Two triangles per quad between consecutive rings of `around` vertices, counter-clockwise
+    seen from outside."""
+    faces = []
+    for j in range(rows):
+        for i in range(around):
+            a = j * around + i
+            b = j * around + (i + 1) % around
+            faces.append((a, b, b + around))
+            faces.append((a, b + around, a + around))
+    return faces
+
+
 def cylinder(segments=2000, rows=4, radius=1.0, length=3.0):
     vertices = []
     for j in range(rows + 1):
@@ -38,17 +51,7 @@ def cylinder(segments=2000, rows=4, radius=1.0, length=3.0):
         for i in range(segments):
             a = 2.0 * math.pi * i / segments
             vertices.append((radius * math.cos(a), radius * math.sin(a), z))
-    faces = []
-    for j in range(rows):
-        for i in range(segments):
-            a = j * segments + i
-            b = j * segments + (i + 1) % segments
-            c = a + segments
-            d = b + segments
-            # Outward-facing: counter-clockwise seen from outside.
-            faces.append((a, b, d))
-            faces.append((a, d, c))
-    return vertices, faces
+    return vertices, tube_faces(rows, segments)
 
 
 def blade(around=1600, stations=5, span=4.0, chord=1.0, twist_deg=60.0):
@@ -70,15 +73,7 @@ def blade(around=1600, stations=5, span=4.0, chord=1.0, twist_deg=60.0):
         s = j / stations
         for i in range(around):
             vertices.append(section(i / around, s))
-    faces = []
-    for j in range(stations):
-        for i in range(around):
-            a = j * around + i
-            b = j * around + (i + 1) % around
-            c = a + around
-            d = b + around
-            faces.append((a, b, d))
-            faces.append((a, d, c))
+    faces = tube_faces(stations, around)
     # Caps: a fan from each end's centre.
     for j, flip in ((0, True), (stations, False)):
         centre = len(vertices)
