@@ -287,16 +287,8 @@ fn partitioned_bound(p: &Piece, to: &Bvh) -> f64 {
         .filter(|&t| t != u32::MAX)
         .collect();
     if diameter(&p.corners) > LARGE * p.upper {
-        let reach = DVec3::splat(p.upper);
-        let [a, b, c] = p.corners;
         let mut near = Vec::new();
-        to.overlapping(a.min(b).min(c) - reach, a.max(b).max(c) + reach, &mut near);
-        if near.len() <= PARTITION_CANDIDATES {
-            let centroid3 = a + b + c;
-            near.sort_by_cached_key(|&t| {
-                let g = to.triangle64(t as usize);
-                (g[0] + g[1] + g[2]).distance_squared(centroid3).to_bits()
-            });
+        if near_triangles(&p.corners, to, p.upper, &mut near) {
             ids = near;
         }
     }
@@ -507,13 +499,14 @@ pub fn within_by(
         }
         // ... or the piece cut along the prisms of those few, or, for a piece large beside ε, of
         // every triangle near it.
-        let mut local = vec![tc];
+        let (mut local, mut count) = ([tc; 4], 1);
         for t in near {
-            if !local.contains(&t) {
-                local.push(t);
+            if !local[..count].contains(&t) {
+                local[count] = t;
+                count += 1;
             }
         }
-        if (local.len() > 1 && scratch.partition(&corners, to, &local, eps, witnesses))
+        if (count > 1 && scratch.partition(&corners, to, &local[..count], eps, witnesses))
             || (diameter(&corners) > LARGE * eps
                 && scratch.partition_near(&corners, to, eps, witnesses))
         {
@@ -562,6 +555,29 @@ fn diameter(c: &[DVec3; 3]) -> f64 {
         .max(c[2].distance(c[0]))
 }
 
+/// Fills `ids` with the triangles of `to` whose boxes come within `reach` of the piece's box, nearest
+/// to its centroid first — the candidates of a wide prism partition; false when there are none or
+/// more than [`PARTITION_CANDIDATES`].
+fn near_triangles(corners: &[DVec3; 3], to: &impl Target, reach: f64, ids: &mut Vec<u32>) -> bool {
+    let [a, b, c] = *corners;
+    ids.clear();
+    to.overlapping(
+        a.min(b).min(c) - DVec3::splat(reach),
+        a.max(b).max(c) + DVec3::splat(reach),
+        ids,
+    );
+    if ids.is_empty() || ids.len() > PARTITION_CANDIDATES {
+        return false;
+    }
+    let centroid3 = a + b + c;
+    ids.sort_by_cached_key(|&t| {
+        let g = to.triangle(t);
+        // Ordered as integers: the squared distance is non-negative, so its bits sort alike.
+        (g[0] + g[1] + g[2]).distance_squared(centroid3).to_bits()
+    });
+    true
+}
+
 /// Buffers of the prism partitions of one check.
 #[derive(Default)]
 struct Scratch {
@@ -608,21 +624,11 @@ impl Scratch {
         eps: f64,
         witnesses: &mut Vec<u32>,
     ) -> bool {
-        let lo = corners[0].min(corners[1]).min(corners[2]) - DVec3::splat(eps);
-        let hi = corners[0].max(corners[1]).max(corners[2]) + DVec3::splat(eps);
         let mut ids = std::mem::take(&mut self.ids);
-        ids.clear();
-        to.overlapping(lo, hi, &mut ids);
-        if ids.is_empty() || ids.len() > PARTITION_CANDIDATES {
+        if !near_triangles(corners, to, eps, &mut ids) {
             self.ids = ids;
             return false;
         }
-        let centroid3 = corners[0] + corners[1] + corners[2];
-        ids.sort_by_cached_key(|&t| {
-            let g = to.triangle(t);
-            // Ordered as integers: the squared distance is non-negative, so its bits sort alike.
-            (g[0] + g[1] + g[2]).distance_squared(centroid3).to_bits()
-        });
         let ok = self.partition(corners, to, &ids, eps, witnesses);
         self.ids = ids;
         ok
