@@ -171,16 +171,15 @@ fn main() {
                 triangles.push(s.triangles as f64);
                 ops += (s.splits + s.unifies) as u64;
                 op_secs += s.operation_secs;
-                peak_bytes = peak_bytes.max(r.front.bytes());
+                peak_bytes = peak_bytes.max(r.bytes());
             }
-            // The operations as the runtime ran them, each timed (with its look-ahead's prefetching,
-            // and among the visits, which evict what they use) between fences, less the fences' own
-            // cost (see `FrameStats::operation_secs`).
+            // The operations as the runtime ran them, each timed (among the visits, which evict
+            // what they use) between fences, less the fences' own cost (see `FrameStats::operation_secs`).
             let loop_rate = ops as f64 / op_secs / 1e6;
             // A second runtime from the same front records the path's operations for the replays
             // (the timed one does not: the log's growth, first touches of memory at ~20 µs a page
             // here, would have been timed with the operations).
-            let mut recorder = Refiner::starting_from(start_front.clone(), settings);
+            let mut recorder = Refiner::starting_from(&h, start_front.clone(), settings);
             recorder.front.log = Some(Vec::new());
             for c in &cameras[1..] {
                 recorder.update(&h, c);

@@ -7,7 +7,7 @@ use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
 use vunify::mesh::{CleanOptions, Mesh};
-use vunify::refine::validation::{check_front, foldovers};
+use vunify::refine::validation::{check_front, check_refiner, foldovers};
 use vunify::refine::{Camera, Front, Hierarchy, Mode, Refiner, Settings, Tests, View};
 use vunify::vtree::{self, BuildOptions, VertexTree};
 
@@ -186,7 +186,7 @@ fn walk_and_check(
     let mut folds = (0, 0);
     for (i, camera) in camera_walk(&h, seed, frames).iter().enumerate() {
         let stats = refiner.update(&h, camera);
-        if let Err(e) = check_front(&h, &refiner.front) {
+        if let Err(e) = check_refiner(&h, &refiner) {
             panic!("frame {i}: {e}");
         }
         if let Mode::Budget(n) = settings.mode {
@@ -324,7 +324,7 @@ fn still_camera_converges_to_the_unamortised_front() {
             },
         );
         assert!(strict.update(&h, camera).converged);
-        check_front(&h, &strict.front).unwrap();
+        check_refiner(&h, &strict).unwrap();
         for u in strict.front.active() {
             if !h.is_leaf(u) && strict_tests.visible(&h, &view, u) {
                 let px = strict_tests.error_px(&h, &view, u);
@@ -332,6 +332,36 @@ fn still_camera_converges_to_the_unamortised_front() {
             }
         }
         assert!(strict.front.triangle_count() >= whole.front.triangle_count());
+    }
+}
+
+/// The runtime keeps its visiting order in step with its front when a caller changes the front
+/// between frames, and when the settings switch a test on or off; and after a whole sweep in
+/// tolerance mode a still camera finds nothing to do.
+#[test]
+fn the_visit_follows_changes_made_between_frames() {
+    let mesh = grid(20, 20, |x, y| (x * 0.5).sin() * (y * 0.4).cos() * 2.0);
+    let h = Hierarchy::new(&tree_of(&mesh));
+    let walk = camera_walk(&h, 5, 60);
+    let mut r = Refiner::new(&h, Settings::default());
+    for (i, camera) in walk.iter().enumerate() {
+        match i % 4 {
+            // Behind the runtime's back: refine everything, or coarsen to the root.
+            1 => r.front.refine_all(&h),
+            2 if i % 8 == 2 => r.front.coarsen_all(&h),
+            // A test switched.
+            3 => r.settings.tests.shading = !r.settings.tests.shading,
+            _ => {}
+        }
+        let first = r.update(&h, camera);
+        check_refiner(&h, &r).unwrap_or_else(|e| panic!("frame {i}: {e}"));
+        assert!(first.converged, "frame {i}: one sweep settles the front");
+        let again = r.update(&h, camera);
+        assert_eq!(
+            (again.visited, again.splits, again.unifies),
+            (0, 0, 0),
+            "frame {i}: a still camera after a whole sweep"
+        );
     }
 }
 
@@ -373,7 +403,7 @@ fn culled_regions_are_coarse() {
         },
     );
     off.update(&h, &camera);
-    check_front(&h, &on.front).unwrap();
+    check_refiner(&h, &on).unwrap();
     // Leaves far from the corner are outside the frustum: their front node is coarse.
     let far_leaf = (0..h.leaf_count)
         .max_by(|&a, &b| {
@@ -658,11 +688,11 @@ fn fronts_start_from_any_cut() {
                 cut.mesh.triangle_count(),
                 "mesh {m} at {level}: the cut's triangles"
             );
-            let mut refiner = Refiner::starting_from(front, Settings::default());
+            let mut refiner = Refiner::starting_from(&h, front, Settings::default());
             for k in 0..20 {
                 let dir = Vec3::new((k as f32).cos(), 0.4, (k as f32).sin());
                 refiner.update(&h, &camera_at(&h, dir, 2.0, bounds(&h).0));
-                check_front(&h, &refiner.front).unwrap();
+                check_refiner(&h, &refiner).unwrap();
             }
         }
         // Not cuts: a node under another, a leaf under none, a node twice, a node out of range.

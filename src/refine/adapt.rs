@@ -1,10 +1,10 @@
 //! The per-frame adaptation of the front (Tao et al. §3.2, §4): visit active nodes, split where the view
 //! asks for more detail, unify where it asks for less, amortised over frames, with geomorphs.
 
-use super::criteria::{Camera, Tests, View};
+use super::criteria::{Camera, NodeView, Tests, View};
 use super::front::Front;
 use super::hierarchy::{Hierarchy, NIL};
-use super::lookahead;
+use super::stream::{Entry, Stream};
 use super::trace::OpClock;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -96,7 +96,14 @@ struct Morph {
 pub struct Refiner {
     pub front: Front,
     pub settings: Settings,
+    /// The front in visiting order, with what visits read (see `refine::stream`).
+    stream: Stream,
+    /// The stream position the next sweep starts from.
     cursor: usize,
+    /// Split children waiting to be visited, the next on top.
+    children: Vec<Entry>,
+    /// The front's operation count when the stream last matched it.
+    ops_seen: u64,
     /// Visits since the last change; a whole front's worth means converged.
     quiet_visits: usize,
     morphs: HashMap<u32, Morph>,
@@ -111,16 +118,19 @@ pub struct Refiner {
 
 impl Refiner {
     pub fn new(h: &Hierarchy, settings: Settings) -> Refiner {
-        Refiner::starting_from(Front::new(h), settings)
+        Refiner::starting_from(h, Front::new(h), settings)
     }
 
     /// A runtime whose first frame adapts `front` (for instance [`Front::at_cut`]) instead of the
     /// root alone.
-    pub fn starting_from(front: Front, settings: Settings) -> Refiner {
+    pub fn starting_from(h: &Hierarchy, front: Front, settings: Settings) -> Refiner {
         Refiner {
+            stream: Stream::of_front(h, &front, settings.tests),
+            ops_seen: front.splits + front.unifies,
             front,
             settings,
             cursor: 0,
+            children: Vec::new(),
             quiet_visits: 0,
             morphs: HashMap::new(),
             vertex_updates: Vec::new(),
@@ -140,6 +150,37 @@ impl Refiner {
     /// a renderer uploads.
     pub fn output(&mut self) -> (&mut Front, &[(u32, Vec3)]) {
         (&mut self.front, &self.vertex_updates)
+    }
+
+    /// Checks, the slow way, that the stream the visits walk is the front: every active node once,
+    /// in the order of their leaves, with the view data of the node and its parent under the
+    /// current tests. For tests (see [`super::validation::check_refiner`]).
+    pub fn check_stream(&self, h: &Hierarchy) -> Result<(), String> {
+        let entries = self.stream.entries();
+        let mut want = self.front.active();
+        want.sort_unstable_by_key(|&u| h.leaf_range(u).0);
+        let got: Vec<u32> = entries.iter().map(|e| e.node).collect();
+        if got != want {
+            return Err(format!(
+                "the stream lists {} nodes, the front has {} active: {:?}…",
+                got.len(),
+                want.len(),
+                got.iter().zip(&want).find(|(a, b)| a != b)
+            ));
+        }
+        let tests = self.stream.tests;
+        match entries
+            .iter()
+            .find(|e| **e != Entry::new(h, &tests, e.node))
+        {
+            Some(e) => Err(format!("node {}'s entry holds stale data", e.node)),
+            None => Ok(()),
+        }
+    }
+
+    /// Heap bytes of the front and of the stream the visits walk.
+    pub fn bytes(&self) -> usize {
+        self.front.bytes() + self.stream.bytes()
     }
 
     /// Where node `u` is drawn now.
@@ -162,6 +203,7 @@ impl Refiner {
         let (splits0, unifies0) = (self.front.splits, self.front.unifies);
         self.vertex_updates.clear();
         self.front.make_room();
+        self.follow_front(h);
         self.advance_morphs(h);
 
         let tau = match self.settings.mode {
@@ -182,57 +224,37 @@ impl Refiner {
             self.quiet_visits = 0;
             self.last_view = this_view;
         }
-        let cap = match self.settings.mode {
-            Mode::Budget(n) => n as usize,
-            Mode::Tolerance => usize::MAX,
+        let frame = Frame {
+            view,
+            tau,
+            cap: match self.settings.mode {
+                Mode::Budget(n) => n as usize,
+                Mode::Tolerance => usize::MAX,
+            },
+            limit: self.settings.visit_limit.unwrap_or(usize::MAX),
+            deadline: self.settings.time_limit.map(|t| start + t),
         };
-        // The front list goes back into memory order between sweeps (see `Front::sort_active`): at
-        // the start of each frame when every frame sweeps until nothing changes, at the end of
-        // each sweep when amortised (a sort mid-sweep would move nodes past the cursor).
-        let amortised = self.settings.visit_limit.is_some() || self.settings.time_limit.is_some();
-        if !amortised {
-            self.front.sort_active();
-            self.cursor = 0;
-        }
-        let limit = self.settings.visit_limit.unwrap_or(usize::MAX);
         let mut visited = 0usize;
         let mut converged = false;
-        while visited < limit {
-            if self.cursor >= self.front.list().len() {
-                // (Unamortised, a frame of many operations, such as the first from the root, leaves
-                // many stale entries: the next sweep need not step over them.)
-                if amortised || self.front.stale_entries() > self.front.active_count() / 8 {
-                    self.front.sort_active();
-                }
-                self.cursor = 0;
-            }
-            if self.quiet_visits >= self.front.active_count() {
+        loop {
+            if self.quiet_visits >= self.stream.len() {
                 converged = true;
                 break;
             }
-            if let Some(t) = self.settings.time_limit
-                && visited % 256 == 255
-                && start.elapsed() >= t
-            {
+            if visited >= frame.limit || frame.deadline.is_some_and(|d| Instant::now() >= d) {
                 break;
             }
-            lookahead::prefetch_ahead(h, self.front.list(), self.cursor);
-            let u = self.front.list()[self.cursor];
-            if !self.front.is_active(u) {
-                // Left the front since it was listed.
-                self.cursor += 1;
-                continue;
-            }
-            visited += 1;
-            if self.visit(h, &view, u, tau, cap) {
-                // The front changed under the cursor: `u` left the front, and the next turn steps
-                // over its entry.
-                self.quiet_visits = 0;
-            } else {
-                self.quiet_visits += 1;
-                self.cursor += 1;
+            let whole = self.cursor == 0;
+            visited += self.sweep(h, &frame, frame.limit - visited);
+            if self.cursor == self.stream.len() {
+                self.cursor = 0;
+                if whole && self.settles_in_one_sweep() {
+                    // Nothing a whole sweep left would change in another (see `settles_in_one_sweep`).
+                    self.quiet_visits = self.stream.len();
+                }
             }
         }
+        self.ops_seen = self.front.splits + self.front.unifies;
         FrameStats {
             active_vertices: self.front.active_count() as u32,
             triangles: self.front.triangle_count() as u32,
@@ -247,39 +269,108 @@ impl Refiner {
         }
     }
 
-    /// Decides about active node `u`; returns whether the front changed.
-    fn visit(&mut self, h: &Hierarchy, view: &View, u: u32, tau: f32, cap: usize) -> bool {
+    /// Whether one whole sweep leaves the front as the next would: in tolerance mode, without a
+    /// cap and with no geomorph under way. Every entry written was weighed for a split after its
+    /// own data and for a unify with its left neighbour, and the two tests agree (a node split
+    /// because it is visible with an error above τ never wants its children unified, by the same
+    /// numbers): nothing changes in a second sweep. Under a cap, a split refused early may fit once
+    /// later unifies have made room; a geomorph changes the front between frames.
+    fn settles_in_one_sweep(&self) -> bool {
+        self.settings.mode == Mode::Tolerance && self.morphs.is_empty()
+    }
+
+    /// Keeps the stream in step with the front when something else changed the front (a caller
+    /// through [`Refiner::output`] or `front`), or with the tests when the settings changed them.
+    fn follow_front(&mut self, h: &Hierarchy) {
+        if self.ops_seen != self.front.splits + self.front.unifies {
+            self.stream = Stream::of_front(h, &self.front, self.settings.tests);
+            self.ops_seen = self.front.splits + self.front.unifies;
+            self.cursor = 0;
+            self.quiet_visits = 0;
+        } else if self.stream.tests != self.settings.tests {
+            self.stream.regather(h, self.settings.tests);
+        }
+    }
+
+    /// Visits entries from the cursor on, at most `limit` of them (and the children of any split
+    /// among them), until the end of the stream or the frame's deadline; moves the cursor to the
+    /// first entry not visited. Returns the visits made.
+    fn sweep(&mut self, h: &Hierarchy, frame: &Frame, limit: usize) -> usize {
+        self.stream.begin(self.cursor);
+        let mut visits = 0usize;
+        while visits < limit
+            && !(visits % 256 == 255 && frame.deadline.is_some_and(|d| Instant::now() >= d))
+        {
+            let Some(e) = self.children.pop().or_else(|| self.stream.next()) else {
+                break;
+            };
+            visits += 1;
+            if self.visit(h, frame, e) {
+                self.quiet_visits = 0;
+            } else {
+                self.quiet_visits += 1;
+            }
+        }
+        // Children not visited before the limit stand where their parent stood, in order, and
+        // are visited first in the next sweep.
+        let resume = self.stream.written();
+        while let Some(e) = self.children.pop() {
+            self.stream.push(e);
+        }
+        let end = self.stream.end();
+        self.cursor = if resume < end { resume } else { end };
+        visits
+    }
+
+    /// Decides about the active node of entry `e`, writing what stands there now to the stream
+    /// (or, after a split, queueing the children's entries to be visited next); returns whether
+    /// the front changed.
+    fn visit(&mut self, h: &Hierarchy, frame: &Frame, e: Entry) -> bool {
         let tests = self.settings.tests;
+        let (view, tau) = (&frame.view, frame.tau);
+        let u = e.node;
         if !self.morphs.is_empty()
             && let Some(m) = self.morphs.get(&u)
             && m.unify_into != NIL
         {
             // Shrinking towards its parent: carry on unless the parent is wanted after all.
             let p = m.unify_into;
-            if wants_unify(&self.settings, h, view, p, tau) {
-                return false;
+            if !wants_unify(&self.settings, view, &e.up, tau) {
+                self.cancel_unify(h, p);
             }
-            self.cancel_unify(h, p);
+            self.stream.push(e);
             return false;
         }
-        let d = decide(&self.settings, &self.front, h, view, u, tau);
-        if d.split {
-            return self.split(h, u, cap);
+        // (The error first: it settles most nodes and costs less than the visibility tests.)
+        if !h.is_leaf(u)
+            && tests.projected(view, &e.own) > tau
+            && tests.sees(view, &e.own)
+            && self.split(h, u, frame.cap)
+        {
+            let [c0, c1] = h.children(u);
+            self.children.push(Entry::new(h, &tests, c1));
+            self.children.push(Entry::new(h, &tests, c0));
+            return true;
         }
-        let p = h.parent[u as usize];
-        let unify = match d.unify_parent {
-            Some(wanted) => wanted,
-            None => self.front.can_unify(h, p) && wants_unify(&self.settings, h, view, p, tau),
-        };
-        if unify && self.front.can_unify(h, p) {
-            let instant = self.settings.geomorph_frames == 0 || !tests.visible(h, view, p);
-            if instant {
-                self.unify(h, p);
-                return true;
+        // Weigh the parent when both its children are on the front: `e` and its left neighbour.
+        let mut e = e;
+        let mut changed = false;
+        while let Some(left) = self.stream.last()
+            && e.pairs_with(left)
+            && wants_unify(&self.settings, view, &e.up, tau)
+        {
+            let p = e.parent;
+            if self.settings.geomorph_frames > 0 && tests.sees(view, &e.up) {
+                self.start_unify(h, p);
+                break;
             }
-            self.start_unify(h, p);
+            self.stream.pop();
+            self.unify(h, p);
+            e = Entry::new(h, &tests, p);
+            changed = true;
         }
-        false
+        self.stream.push(e);
+        changed
     }
 
     /// Splits `u` unless that would draw more than `cap` triangles; returns whether it did.
@@ -378,10 +469,13 @@ impl Refiner {
         }
         unify.sort_unstable();
         unify.dedup();
-        for p in unify {
-            if self.front.can_unify(h, p) {
-                self.unify(h, p);
-            }
+        unify.retain(|&p| self.front.can_unify(h, p));
+        for &p in &unify {
+            self.unify(h, p);
+        }
+        if !unify.is_empty() {
+            self.stream.merge(h, &unify);
+            self.ops_seen = self.front.splits + self.front.unifies;
         }
         let updates: Vec<(u32, Vec3)> = self
             .morphs
@@ -392,47 +486,21 @@ impl Refiner {
     }
 }
 
-/// What the view tests ask of an active node.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Decision {
-    /// Split the node.
-    split: bool,
-    /// Unify its parent (weighed from the first child only: the second would ask the same);
-    /// `None` when not weighed because the parent could not unify then (its second child was not
-    /// on the front).
-    unify_parent: Option<bool>,
-}
-
-/// What the view tests ask of active node `u`.
-#[inline(always)]
-fn decide(
-    settings: &Settings,
-    front: &Front,
-    h: &Hierarchy,
-    view: &View,
-    u: u32,
+/// One frame's view and limits, as every visit reads them.
+struct Frame {
+    view: View,
     tau: f32,
-) -> Decision {
-    let tests = settings.tests;
-    let split = !h.is_leaf(u) && tests.visible(h, view, u) && tests.error_px(h, view, u) > tau;
-    let p = h.parent[u as usize];
-    let unify_parent = if split || p == NIL || h.children(p)[0] != u {
-        Some(false)
-    } else if front.can_unify(h, p) {
-        Some(wants_unify(settings, h, view, p, tau))
-    } else {
-        None
-    };
-    Decision {
-        split,
-        unify_parent,
-    }
+    /// Splits that would draw more triangles than this are refused (budget mode).
+    cap: usize,
+    /// At most this many visits.
+    limit: usize,
+    deadline: Option<Instant>,
 }
 
-/// Whether split node `p` should unify: outside the view, or its error below τ less the
-/// hysteresis.
-fn wants_unify(settings: &Settings, h: &Hierarchy, view: &View, p: u32, tau: f32) -> bool {
+/// Whether split node `p`, of gathered data `up`, should unify: outside the view, or its error
+/// below τ less the hysteresis.
+fn wants_unify(settings: &Settings, view: &View, up: &NodeView, tau: f32) -> bool {
     let tests = settings.tests;
-    !tests.visible(h, view, p)
-        || (tests.screen_error && tests.error_px(h, view, p) < tau * (1.0 - settings.hysteresis))
+    (tests.screen_error && tests.projected(view, up) < tau * (1.0 - settings.hysteresis))
+        || !tests.sees(view, up)
 }

@@ -185,14 +185,53 @@ impl Default for Tests {
     }
 }
 
+/// What the view tests read of one internal node, gathered in one place (28 bytes): the runtime
+/// keeps a copy beside each node on its front so that a frame's visit reads them in order instead
+/// of from the hierarchy's arrays (see `refine::stream`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct NodeView {
+    /// The node's position: the centre of its bounding sphere.
+    pub center: Vec3,
+    pub radius: f32,
+    /// The object-space error the screen-space test projects under these [`Tests`]: the measured
+    /// error or the strict bound, widened by the shading term when that is on.
+    pub error: f32,
+    /// The normal cone: axis octahedral-encoded, sine of the half-angle (see [`Bounds`](super::hierarchy::Bounds)).
+    pub cone_axis: [i16; 2],
+    pub cone_sin: f32,
+}
+
 impl Tests {
+    /// What these tests read of internal node `u`.
+    #[inline]
+    pub fn node_view(&self, h: &Hierarchy, u: u32) -> NodeView {
+        let b = &h.internal_bounds[(u - h.leaf_count) as usize];
+        let mut error = if self.strict { b.bound } else { b.error };
+        if self.shading {
+            error = error.max(SHADING_WEIGHT * b.shading);
+        }
+        NodeView {
+            center: h.position[u as usize],
+            radius: b.radius,
+            error,
+            cone_axis: b.cone_axis,
+            cone_sin: b.cone_sin,
+        }
+    }
+
     /// Can the node be seen at all: not wholly outside the frustum, not wholly facing away?
     #[inline]
     pub fn visible(&self, h: &Hierarchy, view: &View, u: u32) -> bool {
-        let b = &h.internal_bounds[(u - h.leaf_count) as usize];
-        let (c, r) = (h.position[u as usize], b.radius);
-        let culled = (self.frustum && view.outside(c, r))
-            || (self.normal && view.back_facing(c, r, decode_normal(b.cone_axis), b.cone_sin));
+        self.sees(view, &self.node_view(h, u))
+    }
+
+    /// [`Tests::visible`] of a node's gathered data.
+    #[inline]
+    pub fn sees(&self, view: &View, n: &NodeView) -> bool {
+        let culled = (self.frustum && view.outside(n.center, n.radius))
+            || (self.normal
+                && view.back_facing(n.center, n.radius, decode_normal(n.cone_axis), n.cone_sin));
         !culled
     }
 
@@ -200,15 +239,16 @@ impl Tests {
     /// visible node refines).
     #[inline]
     pub fn error_px(&self, h: &Hierarchy, view: &View, u: u32) -> f32 {
+        self.projected(view, &self.node_view(h, u))
+    }
+
+    /// [`Tests::error_px`] of a node's gathered data.
+    #[inline]
+    pub fn projected(&self, view: &View, n: &NodeView) -> f32 {
         if !self.screen_error {
             return f32::INFINITY;
         }
-        let b = &h.internal_bounds[(u - h.leaf_count) as usize];
-        let mut error = if self.strict { b.bound } else { b.error };
-        if self.shading {
-            error = error.max(SHADING_WEIGHT * b.shading);
-        }
-        view.projected_px(error, h.position[u as usize], b.radius)
+        view.projected_px(n.error, n.center, n.radius)
     }
 }
 

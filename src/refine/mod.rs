@@ -5,7 +5,7 @@
 //!
 //! [`hierarchy`] prepares a tree for the runtime, [`front`] holds the live vertex and triangle chains
 //! and the `vsplit` / `vunify` operations, [`criteria`] the camera and the three tests, [`adapt`] the
-//! per-frame driver (with `lookahead`, the prefetching that keeps it from waiting on memory),
+//! per-frame driver (with `stream`, the front in the order its visits read it),
 //! [`validation`] from-scratch checks for tests.
 //!
 //! Tao, Cheng, Pan and Shi, *Dynamic level of detail framework with topological structure
@@ -18,7 +18,7 @@ pub mod adapt;
 pub mod criteria;
 pub mod front;
 pub mod hierarchy;
-mod lookahead;
+mod stream;
 mod trace;
 pub mod validation;
 

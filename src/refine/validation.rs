@@ -1,6 +1,7 @@
 //! From-scratch checks of a live front, for tests: everything [`Front`] maintains incrementally,
 //! recomputed the slow, obvious way.
 
+use super::adapt::Refiner;
 use super::front::{ACTIVE, BELOW, Front, SPLIT};
 use super::hierarchy::{Hierarchy, NIL};
 use std::collections::{HashMap, HashSet};
@@ -29,18 +30,11 @@ pub fn check_front(h: &Hierarchy, front: &Front) -> Result<(), String> {
             return Err(format!("leaf {u} is split"));
         }
     }
-    // Every node has at most one entry in the front list, stale or not (else a sweep would visit
-    // it twice).
-    let mut entries = HashSet::new();
-    if let Some(u) = front.list().iter().find(|&&u| !entries.insert(u)) {
-        return Err(format!("node {u} has two entries in the front list"));
-    }
-    let listed: HashSet<u32> = front.active().iter().copied().collect();
     let stated = (0..count).filter(|&u| front.state(u) == ACTIVE).count();
-    if stated != listed.len() || listed.iter().any(|&u| front.state(u) != ACTIVE) {
+    if stated != front.active_count() {
         return Err(format!(
-            "{} nodes listed on the front, {stated} active",
-            listed.len()
+            "{} nodes counted on the front, {stated} active",
+            front.active_count()
         ));
     }
     // g: the active node standing for every node, parents first.
@@ -100,6 +94,13 @@ pub fn check_front(h: &Hierarchy, front: &Front) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// [`check_front`] of a runtime's front, and its visiting stream checked against that front
+/// ([`Refiner::check_stream`]).
+pub fn check_refiner(h: &Hierarchy, refiner: &Refiner) -> Result<(), String> {
+    check_front(h, &refiner.front)?;
+    refiner.check_stream(h)
 }
 
 fn sorted(mut c: [u32; 3]) -> [u32; 3] {

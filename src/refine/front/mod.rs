@@ -34,9 +34,6 @@ use super::hierarchy::{Hierarchy, NIL};
 pub const BELOW: u8 = 0;
 pub const ACTIVE: u8 = 1;
 pub const SPLIT: u8 = 2;
-/// Set in `state` beside the state while the node has an entry in the front list (see
-/// [`Front::list`]): entries of nodes that left the front stay until a visit drops them.
-const LISTED: u8 = 0x80;
 
 /// `slot` of a live triangle that is not drawn: another live triangle has the same corners.
 const HIDDEN: u32 = u32::MAX;
@@ -301,13 +298,10 @@ fn has_corner(c: [u32; 3], u: u32) -> bool {
 
 /// The live state of one view of a [`Hierarchy`].
 pub struct Front {
-    /// Each node's state, with `LISTED`.
+    /// Each node's state.
     state: Vec<u8>,
     /// The first record around each active node, as a link.
     head: Vec<u32>,
-    /// The front list: every active node once, in no particular order, and nodes that have left
-    /// the front since (see [`Front::list`]).
-    list: Vec<u32>,
     active_count: usize,
     records: Vec<Record>,
     free_records: Vec<u32>,
@@ -326,7 +320,7 @@ pub struct Front {
     #[cfg(feature = "trace")]
     pub log: Option<Vec<u32>>,
     /// The capacities of the arrays [`Front::make_room`] looks after when it last touched them.
-    touched: [usize; 5],
+    touched: [usize; 4],
     pub splits: u64,
     pub unifies: u64,
 }
@@ -344,7 +338,6 @@ impl Clone for Front {
         Front {
             state: with_room(&self.state),
             head: with_room(&self.head),
-            list: with_room(&self.list),
             active_count: self.active_count,
             records: with_room(&self.records),
             free_records: with_room(&self.free_records),
@@ -362,7 +355,7 @@ impl Clone for Front {
             #[cfg(feature = "trace")]
             log: self.log.clone(),
             // A copy's spare capacity is new memory.
-            touched: [0; 5],
+            touched: [0; 4],
             splits: self.splits,
             unifies: self.unifies,
         }
@@ -391,11 +384,10 @@ impl Front {
         // operations would fault its pages in as the front reaches them.
         let mut state = Vec::with_capacity(nodes);
         state.resize(nodes, BELOW);
-        state[root as usize] = ACTIVE | LISTED;
+        state[root as usize] = ACTIVE;
         Front {
             state,
             head: vec![NIL; nodes],
-            list: vec![root],
             active_count: 1,
             records: Vec::new(),
             free_records: Vec::new(),
@@ -408,7 +400,7 @@ impl Front {
             candidates: Candidates::new(),
             #[cfg(feature = "trace")]
             log: None,
-            touched: [0; 5],
+            touched: [0; 4],
             splits: 0,
             unifies: 0,
         }
@@ -446,7 +438,7 @@ impl Front {
 
     #[inline]
     pub fn state(&self, u: u32) -> u8 {
-        self.state[u as usize] & !LISTED
+        self.state[u as usize]
     }
 
     #[inline]
@@ -454,11 +446,10 @@ impl Front {
         self.state(u) == ACTIVE
     }
 
-    /// The active nodes (the current vertex chain), in no particular order.
+    /// The active nodes (the current vertex chain), in node order. A scan of every node's state:
+    /// for tests and set-up, not for every frame.
     pub fn active(&self) -> Vec<u32> {
-        self.list
-            .iter()
-            .copied()
+        (0..self.state.len() as u32)
             .filter(|&u| self.is_active(u))
             .collect()
     }
@@ -466,21 +457,6 @@ impl Front {
     /// How many nodes are active.
     pub fn active_count(&self) -> usize {
         self.active_count
-    }
-
-    /// The front list that visits walk: every active node once, and the nodes that have left the
-    /// front since their entry was made (stale entries), which visits step over and
-    /// [`Front::sort_active`] drops. Leaving them in place saves every operation a position lookup
-    /// and an update of the list, and keeps the entries ahead of a visit where they are, which the
-    /// runtime's look-ahead relies on (filling the hole with the last entry, as a swap-remove
-    /// would, brings a node to the cursor whose data was never asked for).
-    pub fn list(&self) -> &[u32] {
-        &self.list
-    }
-
-    /// How many entries of the front list are stale.
-    pub fn stale_entries(&self) -> usize {
-        self.list.len() - self.active_count
     }
 
     /// The drawn triangles, as node ids (vertex indices into the node arrays).
@@ -508,23 +484,6 @@ impl Front {
     /// Can `p` unify: both children active?
     pub fn can_unify(&self, h: &Hierarchy, p: u32) -> bool {
         !h.is_leaf(p) && h.children(p).iter().all(|&c| self.is_active(c))
-    }
-
-    /// Puts the front list in node order: depth-first numbering makes that the order in which nodes
-    /// lie in memory, so a sweep over the front streams instead of jumping (operations append new
-    /// nodes at the end). Drops the stale entries, too. The list is mostly in order already, and a
-    /// run-adaptive sort costs little more than a pass over it.
-    pub fn sort_active(&mut self) {
-        let mut list = std::mem::take(&mut self.list);
-        list.retain(|&u| {
-            let keep = self.is_active(u);
-            if !keep {
-                self.state[u as usize] &= !LISTED;
-            }
-            keep
-        });
-        list.sort();
-        self.list = list;
     }
 
     /// Slot ranges of [`Front::indices`] written since the last call, merged, clipped to the current
@@ -556,7 +515,6 @@ impl Front {
         use std::mem::size_of;
         self.state.capacity()
             + self.head.capacity() * 4
-            + self.list.capacity() * 4
             + self.records.capacity() * size_of::<Record>()
             + self.free_records.capacity() * 4
             + self.drawn.indices.capacity() * size_of::<[u32; 3]>()
@@ -569,7 +527,7 @@ impl Front {
     }
 
     /// Makes room ahead of need in the arrays that grow with the front (records, free records,
-    /// drawn triangles, front list), and touches it: the operations then take new memory without
+    /// drawn triangles), and touches it: the operations then take new memory without
     /// waiting for the system. Growing a `Vec` inside an operation copies it and faults its new
     /// pages in one at a time (~2 µs each here, and the kernel's zeroing of each page evicts what
     /// was fetched ahead): on the dragon's fly-in, whose front doubles, that halved the
@@ -598,12 +556,11 @@ impl Front {
             input: [NIL; 3],
             slot: HIDDEN,
         };
-        let [records, free, indices, slots, list] = &mut self.touched;
+        let [records, free, indices, slots] = &mut self.touched;
         room(&mut self.records, records, BLANK);
         room(&mut self.free_records, free, 0);
         room(&mut self.drawn.indices, indices, [0; 3]);
         room(&mut self.drawn.slot_record, slots, 0);
-        room(&mut self.list, list, 0);
         // Dirty bits for every slot there is room for.
         let words = (self.drawn.indices.capacity()).div_ceil((DIRTY_BLOCK * 64) as usize);
         let dirty = &mut self.drawn.dirty;

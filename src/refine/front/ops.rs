@@ -5,20 +5,14 @@ use super::*;
 
 impl Front {
     pub(super) fn activate(&mut self, u: u32) {
-        let state = &mut self.state[u as usize];
-        if *state & LISTED == 0 {
-            self.list.push(u);
-        }
-        *state = ACTIVE | LISTED;
+        self.state[u as usize] = ACTIVE;
         self.head[u as usize] = NIL;
         self.active_count += 1;
     }
 
-    /// Takes `u` off the front; returns the first record around it. Its front list entry stays
-    /// (see [`Front::list`]).
+    /// Takes `u` off the front; returns the first record around it.
     pub(super) fn deactivate(&mut self, u: u32, to: u8) -> u32 {
-        let state = &mut self.state[u as usize];
-        *state = to | (*state & LISTED);
+        self.state[u as usize] = to;
         self.active_count -= 1;
         self.head[u as usize]
     }
