@@ -52,6 +52,8 @@ pub enum What {
     Vsync(bool),
     Geomorph(u32),
     VisitLimit(u32),
+    /// The frame rate the viewer holds by raising τ; 0 turns the hold off.
+    HoldFps(f32),
     Frustum(bool),
     Normal(bool),
     ScreenError(bool),
@@ -120,6 +122,12 @@ impl Script {
                         a.frame
                     )));
                 }
+                What::HoldFps(f) if !(f >= 0.0 && f.is_finite()) => {
+                    return Err(fail(format!(
+                        "the action at frame {} sets hold_fps to {f}; it must be 0 (off) or a positive frame rate",
+                        a.frame
+                    )));
+                }
                 _ => {}
             }
         }
@@ -141,5 +149,41 @@ impl Script {
                 .collect(),
             stats: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn actions_parse_and_bad_values_name_their_frame() {
+        let path = Path::new("demo.json");
+        let ok =
+            br#"{"frames": 3, "actions": [{"frame": 0, "hold_fps": 0}, {"frame": 1, "tau": 2.5}]}"#;
+        let s = Script::parse(ok, path).unwrap();
+        assert!(matches!(s.actions[0].what, What::HoldFps(f) if f == 0.0));
+        let bad = br#"{"frames": 3, "actions": [{"frame": 2, "hold_fps": -5}]}"#;
+        let e = Script::parse(bad, path).unwrap_err().to_string();
+        assert!(
+            e.starts_with("demo.json: ") && e.contains("frame 2") && e.contains("hold_fps"),
+            "{e}"
+        );
+        let e = Script::parse(
+            br#"{"frames": 3, "actions": [{"frame": 1, "tau": 0}]}"#,
+            path,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("frame 1 sets tau to 0"), "{e}");
+        let e = Script::parse(br#"{"frames": 0}"#, path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frames is 0"), "{e}");
+        // Syntax errors say where.
+        let e = Script::parse(b"{\"frames\": 3,\n \"actions\": [}", path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("demo.json:2:"), "{e}");
     }
 }

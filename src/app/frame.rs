@@ -210,7 +210,15 @@ fn refine_and_upload(
         stats: FrameStats::default(),
     };
     if let Some(m) = &mut view.model {
-        m.refiner.settings = refine_settings(settings);
+        // The hold weighs the last frame; budget mode regulates τ itself.
+        let hold_fps = if settings.budget_mode {
+            0.0
+        } else {
+            settings.hold_fps
+        };
+        let last_ms = view.history.back().map_or(0.0, |l| l.frame_ms);
+        let scale = view.hold.next(last_ms, hold_fps);
+        m.refiner.settings = refine_settings(settings, scale);
         let lod_camera = view.frozen.unwrap_or(*camera);
         line.stats = m.refiner.update(&m.loaded.hierarchy, &lod_camera);
         let t0 = Instant::now();
@@ -373,6 +381,7 @@ pub(super) fn apply(what: &What, view: &mut ViewState, settings: &mut ViewerSett
         What::Vsync(on) => settings.vsync = *on,
         What::Geomorph(f) => settings.geomorph_frames = *f,
         What::VisitLimit(k) => settings.visit_limit = *k,
+        What::HoldFps(f) => settings.hold_fps = f.max(0.0),
         What::Frustum(on) => settings.tests.frustum = *on,
         What::Normal(on) => settings.tests.normal = *on,
         What::ScreenError(on) => settings.tests.screen_error = *on,

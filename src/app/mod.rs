@@ -174,6 +174,7 @@ impl App {
             message: None,
             controls: Controls::framing(Vec3::ZERO, 1.0),
             frozen: None,
+            hold: Default::default(),
             history: VecDeque::new(),
             all_frames: Vec::new(),
             error_log: Vec::new(),

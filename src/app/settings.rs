@@ -12,6 +12,9 @@ pub struct ViewerSettings {
     pub tolerance_px: f32,
     pub budget: u32,
     pub budget_mode: bool,
+    /// Hold this frame rate by raising τ while frames are slower (see [`crate::refine::Hold`]); 0
+    /// turns the hold off. Default 25.
+    pub hold_fps: f32,
     /// Front nodes visited per frame; 0 means all (no amortisation).
     pub visit_limit: u32,
     pub geomorph_frames: u32,
@@ -26,12 +29,18 @@ pub struct ViewerSettings {
     pub recent: Vec<PathBuf>,
 }
 
+/// The frame rate the viewer holds unless told otherwise: fluid enough to fly with, low enough that
+/// a software rasteriser keeps τ = 1 px on models of a few hundred thousand triangles (the dragon
+/// flies at ~35 fps on lavapipe at 1280 × 720, BENCHMARKS.md).
+pub const DEFAULT_HOLD_FPS: f32 = 25.0;
+
 impl Default for ViewerSettings {
     fn default() -> Self {
         ViewerSettings {
             tolerance_px: 1.0,
             budget: 100_000,
             budget_mode: false,
+            hold_fps: DEFAULT_HOLD_FPS,
             visit_limit: 0,
             geomorph_frames: 0,
             tests: Tests::default(),

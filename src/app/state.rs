@@ -34,6 +34,8 @@ pub struct ViewState {
     pub message: Option<String>,
     pub controls: Controls,
     pub frozen: Option<Camera>,
+    /// How far the frame-rate hold raises τ now.
+    pub hold: crate::refine::Hold,
     pub history: VecDeque<FrameLine>,
     pub all_frames: Vec<FrameLine>,
     /// Every error shown, for scripted runs' statistics.
@@ -70,7 +72,10 @@ pub(super) fn install(gfx: &Gfx, view: &mut ViewState, loaded: Loaded, settings:
     renderer.set_hierarchy(&gfx.gpu.device, &gfx.gpu.queue, &loaded.hierarchy);
     view.controls.frame(loaded.center, loaded.radius);
     view.controls.orbit = settings.orbit;
-    let refiner = Refiner::new(&loaded.hierarchy, refine_settings(settings));
+    let refiner = Refiner::new(
+        &loaded.hierarchy,
+        refine_settings(settings, view.hold.scale()),
+    );
     view.message = Some(format!(
         "{}: {} triangles, {} vertices{}",
         loaded.path.display(),
@@ -92,9 +97,10 @@ pub(super) fn install(gfx: &Gfx, view: &mut ViewState, loaded: Loaded, settings:
     });
 }
 
-pub(super) fn refine_settings(s: &ViewerSettings) -> Settings {
+/// The runtime's settings for the viewer's, with τ raised `tau_scale` times (the frame-rate hold).
+pub(super) fn refine_settings(s: &ViewerSettings, tau_scale: f32) -> Settings {
     Settings {
-        tolerance_px: s.tolerance_px,
+        tolerance_px: s.tolerance_px * tau_scale,
         mode: s.mode(),
         tests: s.tests,
         visit_limit: (s.visit_limit > 0).then_some(s.visit_limit as usize),

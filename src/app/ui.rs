@@ -108,6 +108,11 @@ fn lod_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings)
                 .suffix(" triangles"),
         );
     });
+    ui.add_enabled(
+        !settings.budget_mode,
+        egui::Slider::new(&mut settings.hold_fps, 0.0..=120.0).text("hold fps (0: off)"),
+    )
+    .on_hover_text("Raise τ while frames are slower than this; back to your τ once they are fast");
     ui.add(
         egui::Slider::new(&mut settings.visit_limit, 0..=100_000)
             .logarithmic(true)
@@ -369,8 +374,13 @@ fn stats_section(ui: &mut Ui, view: &mut ViewState) {
         row(
             "τ used",
             format!(
-                "{:.2} px{}",
+                "{:.2} px{}{}",
                 s.tolerance_px,
+                if view.hold.scale() > 1.0 {
+                    format!(" (×{:.2} to hold the frame rate)", view.hold.scale())
+                } else {
+                    String::new()
+                },
                 if s.converged { ", converged" } else { "" }
             ),
         );

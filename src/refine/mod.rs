@@ -6,7 +6,7 @@
 //! [`hierarchy`] prepares a tree for the runtime, [`front`] holds the live vertex and triangle chains
 //! and the `vsplit` / `vunify` operations, [`criteria`] the camera and the three tests, [`adapt`] the
 //! per-frame driver (with `stream`, the front in the order its visits read it),
-//! [`validation`] from-scratch checks for tests.
+//! [`hold`] the frame-rate hold a viewer puts on τ, [`validation`] from-scratch checks for tests.
 //!
 //! Tao, Cheng, Pan and Shi, *Dynamic level of detail framework with topological structure
 //! modification* (State Key Laboratory of CAD&CG, Zhejiang University), §3–4; with Hoppe's
@@ -18,6 +18,7 @@ pub mod adapt;
 pub mod criteria;
 pub mod front;
 pub mod hierarchy;
+pub mod hold;
 mod stream;
 mod trace;
 pub mod validation;
@@ -26,3 +27,4 @@ pub use adapt::{FrameStats, Mode, Refiner, Settings};
 pub use criteria::{Camera, Tests, View};
 pub use front::{CutError, Front};
 pub use hierarchy::Hierarchy;
+pub use hold::Hold;

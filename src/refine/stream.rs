@@ -111,7 +111,7 @@ impl Stream {
     /// Starts a sweep at entry `start`: the entries before it stay as they are, the rest are read.
     pub fn begin(&mut self, start: usize) {
         let start = start.min(self.len);
-        let need = self.len + (self.len / 8).max(MIN_GAP);
+        let need = self.len + (self.len / 16).max(MIN_GAP);
         if self.buf.len() < need {
             self.buf.resize(need, Entry::default());
         }
@@ -160,7 +160,7 @@ impl Stream {
     #[cold]
     fn widen(&mut self) {
         let old = self.buf.len();
-        let more = (old / 4).max(MIN_GAP);
+        let more = (old / 8).max(MIN_GAP);
         self.buf.resize(old + more, Entry::default());
         self.buf.copy_within(self.read..old, self.read + more);
         self.read += more;
