@@ -3,8 +3,13 @@
 //! front from scratch (a fresh refiner from the root) and extracting the same triangle count from the
 //! tree, in the same run.
 //!
-//! `cargo bench --bench refine [-- --models dragon,bunny --frames 600 --size 1920x1080 --tau 1]`
+//! `cargo bench --bench refine [-- --models dragon,bunny --frames 600 --size 1920x1080 --tau 1 --warm]`
 //! Models come from `$VUNIFY_MODELS` (required).
+//!
+//! Between frames the bench writes [`EVICT_BYTES`] of memory (not timed), as the product's rasteriser
+//! streams its framebuffers and vertex data through the caches between two refinements: a frame
+//! starts with nothing of the hierarchy in cache, as it does in `vunify render` and the viewer.
+//! `--warm` leaves the caches alone (the runtime's best case).
 
 use glam::Vec3;
 use std::path::PathBuf;
@@ -59,6 +64,17 @@ fn args() -> Args {
     a
 }
 
+/// Memory written between frames to evict the caches: twice the largest last-level cache here.
+const EVICT_BYTES: usize = 64 << 20;
+
+/// Writes every cache line of `scratch`, pushing what the last frame used out of the caches.
+fn evict_caches(scratch: &mut [u8]) {
+    for line in scratch.chunks_mut(64) {
+        line[0] = line[0].wrapping_add(1);
+    }
+    std::hint::black_box(scratch);
+}
+
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
@@ -108,9 +124,18 @@ fn main() {
         std::env::var_os("VUNIFY_MODELS")
             .expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
     );
+    let warm = std::env::args().any(|a| a == "--warm");
     println!(
-        "# refine bench: {} frames a path, {}x{}, tau = {} px",
-        args.frames, args.size[0], args.size[1], args.tau
+        "# refine bench: {} frames a path, {}x{}, tau = {} px, caches {}",
+        args.frames,
+        args.size[0],
+        args.size[1],
+        args.tau,
+        if warm {
+            "warm"
+        } else {
+            "evicted between frames"
+        }
     );
     println!(
         "| model | path | median ms | p99 ms | max ms | operations | operations/s (M, in the loop) | operations/s (M, replayed) | triangles median | triangles max | from-scratch front ms | extract same count ms | bytes/vertex |"
@@ -165,7 +190,9 @@ fn main() {
             let mut ops = 0u64;
             let mut op_secs = 0.0;
             let mut peak_bytes = 0;
+            let mut scratch = vec![0u8; if warm { 0 } else { EVICT_BYTES }];
             for c in &cameras[1..] {
+                evict_caches(&mut scratch);
                 let s = r.update(&h, c);
                 times.push(s.refine_secs * 1e3);
                 triangles.push(s.triangles as f64);

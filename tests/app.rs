@@ -114,6 +114,8 @@ fn scripted_run_shows_the_model_and_the_panel() {
             "frames": 60,
             "path": "fly-in",
             "actions": [
+                // τ stays as set (the frame-rate hold would raise it on a slow machine).
+                {"frame": 0, "hold_fps": 0},
                 {"frame": 2, "open": bad},
                 {"frame": 5, "record": recorded},
                 {"frame": 50, "record": null},
