@@ -118,13 +118,8 @@ fn camera(eye: Vec3, target: Vec3, radius: f32, size: [u32; 2]) -> Camera {
 /// Replays of each path's operations; the median rate is reported.
 const REPLAYS: usize = 9;
 
-fn main() {
-    let args = args();
-    let dir = PathBuf::from(
-        std::env::var_os("VUNIFY_MODELS")
-            .expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
-    );
-    let warm = std::env::args().any(|a| a == "--warm");
+/// The table's title and header.
+fn print_header(args: &Args, warm: bool) {
     println!(
         "# refine bench: {} frames a path, {}x{}, tau = {} px, caches {}",
         args.frames,
@@ -141,6 +136,16 @@ fn main() {
         "| model | path | median ms | p99 ms | max ms | operations | operations/s (M, in the loop) | operations/s (M, replayed) | triangles median | triangles max | from-scratch front ms | extract same count ms | bytes/vertex |"
     );
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+}
+
+fn main() {
+    let args = args();
+    let dir = PathBuf::from(
+        std::env::var_os("VUNIFY_MODELS")
+            .expect("set VUNIFY_MODELS to the folder of the test models (see the README)"),
+    );
+    let warm = std::env::args().any(|a| a == "--warm");
+    print_header(&args, warm);
     for name in &args.models {
         let (mesh, _) = vunify::mesh::load(&dir.join(name), &CleanOptions::default())
             .unwrap_or_else(|e| panic!("{e}"));
