@@ -248,7 +248,7 @@ fn main() {
             times.sort_by(f64::total_cmp);
             triangles.sort_by(f64::total_cmp);
             println!(
-                "| {name} | {path} | {:.3} | {:.3} | {:.3} | {ops} | {loop_rate:.2} | {:.2} | {:.0} | {:.0} | {scratch_ms:.1} | {extract_ms:.1} | {:.0} |",
+                "| {name} | {path} | {:.3} | {:.3} | {:.3} | {ops} | {loop_rate:.2} | {:.2} | {:.0} | {:.0} | {scratch_ms:.1} | {extract_ms:.1} | {:.1} |",
                 percentile(&times, 0.5),
                 percentile(&times, 0.99),
                 times.last().unwrap(),

@@ -111,9 +111,13 @@ impl Stream {
     /// Starts a sweep at entry `start`: the entries before it stay as they are, the rest are read.
     pub fn begin(&mut self, start: usize) {
         let start = start.min(self.len);
-        let need = self.len + (self.len / 16).max(MIN_GAP);
-        if self.buf.len() < need {
-            self.buf.resize(need, Entry::default());
+        // A gap of at least a sixteenth of the entries; when it is short, room for an eighth, so
+        // that a growing front makes the buffer grow every few dozen frames, not every frame.
+        if self.buf.len() < self.len + (self.len / 16).max(MIN_GAP) {
+            let size = self.len + (self.len / 8).max(MIN_GAP);
+            // Exactly: a `Vec`'s doubling would leave up to twice the front's entries allocated.
+            self.buf.reserve_exact(size - self.buf.len());
+            self.buf.resize(size, Entry::default());
         }
         let tail = self.buf.len() - (self.len - start);
         self.buf.copy_within(start..self.len, tail);
@@ -161,6 +165,7 @@ impl Stream {
     fn widen(&mut self) {
         let old = self.buf.len();
         let more = (old / 8).max(MIN_GAP);
+        self.buf.reserve_exact(more);
         self.buf.resize(old + more, Entry::default());
         self.buf.copy_within(self.read..old, self.read + more);
         self.read += more;

@@ -532,16 +532,16 @@ impl Front {
     /// pages in one at a time (~2 µs each here, and the kernel's zeroing of each page evicts what
     /// was fetched ahead): on the dragon's fly-in, whose front doubles, that halved the
     /// operations' rate. Called between operations (by the runtime once a frame); an array grows
-    /// by a quarter of its length once less than a sixteenth is left, so the capacity stays
-    /// within 1.25× of the length plus a little (a frame's operations add a few hundred
-    /// triangles: a sixteenth of a front is room for many frames).
+    /// by an eighth of its length once less than a thirty-second is left, so the capacity stays
+    /// within 1.125× of the length plus a little (a frame's operations add a few hundred
+    /// triangles: a thirty-second of a front is room for several frames).
     pub fn make_room(&mut self) {
         /// Grows `v` if it is short of room, and touches its spare capacity unless `touched`, the
         /// capacity it had when last touched, says that is done.
         fn room<T: Copy>(v: &mut Vec<T>, touched: &mut usize, fill: T) {
             let len = v.len();
-            if v.capacity() - len < len / 16 + MIN_ROOM {
-                v.reserve_exact(len / 4 + 2 * MIN_ROOM);
+            if v.capacity() - len < len / 32 + MIN_ROOM {
+                v.reserve_exact(len / 8 + 2 * MIN_ROOM);
             }
             if v.capacity() != *touched {
                 // Touched by writing and dropping: no unsafe code, and the writes cannot be
