@@ -216,8 +216,11 @@ fn refine_and_upload(
         } else {
             settings.hold_fps
         };
-        let last_ms = view.history.back().map_or(0.0, |l| l.frame_ms);
-        let scale = view.hold.next(last_ms, hold_fps);
+        let (last_ms, last_triangles) = view
+            .history
+            .back()
+            .map_or((0.0, 0), |l| (l.frame_ms, l.stats.triangles));
+        let scale = view.hold.next(last_ms, last_triangles, hold_fps);
         m.refiner.settings = refine_settings(settings, scale);
         let lod_camera = view.frozen.unwrap_or(*camera);
         line.stats = m.refiner.update(&m.loaded.hierarchy, &lod_camera);
