@@ -22,11 +22,12 @@ const LOW: f64 = 0.9;
 /// slow for another reason than the triangles (the window's size, the machine).
 const MAX_SCALE: f32 = 8.0;
 /// Nor while a frame draws fewer triangles than this: lavapipe, the slowest renderer vunify runs
-/// on, draws 50,000 at 1280 × 720 in about 15 ms, so such a frame is slow for another reason (the
-/// machine busy with other work), which coarser models would not cure. Measured: with a compile
-/// running beside the viewer, the dragon's frames stayed at ~70 ms while a hold without this floor
-/// took it from 30,000 triangles down to 7,500 (τ 8 px), visibly faceted.
-const MIN_TRIANGLES: u32 = 50_000;
+/// on, draws the dragon's 20,000–30,000 at 1280 × 720 in 25–35 ms, inside a 25 fps frame, so a slower
+/// frame with fewer triangles is slow for another reason (the machine busy with other work), which
+/// coarser models would not cure. Measured: with a compile running beside the viewer, the dragon's
+/// frames stayed at ~70 ms while a hold without this floor took it from 30,000 triangles down to
+/// 7,500 (τ 8 px), visibly faceted.
+const MIN_TRIANGLES: u32 = 30_000;
 
 /// The state of the hold: the last frames' times and how far τ is raised now.
 #[derive(Clone, Copy, Debug, PartialEq)]
