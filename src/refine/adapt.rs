@@ -317,8 +317,7 @@ impl Refiner {
         while let Some(e) = self.children.pop() {
             self.stream.push(e);
         }
-        let end = self.stream.end();
-        self.cursor = if resume < end { resume } else { end };
+        self.cursor = resume.min(self.stream.end());
         visits
     }
 
@@ -348,8 +347,8 @@ impl Refiner {
             && self.split(h, u, frame.cap)
         {
             let [c0, c1] = h.children(u);
-            self.children.push(Entry::new(h, &tests, c1));
-            self.children.push(Entry::new(h, &tests, c0));
+            self.children.push(Entry::under(h, &tests, c1, &e));
+            self.children.push(Entry::under(h, &tests, c0, &e));
             return true;
         }
         // Weigh the parent when both its children are on the front: `e` and its left neighbour.

@@ -57,6 +57,22 @@ impl Entry {
         }
     }
 
+    /// The entry of `u`, a child of the node of entry `parent`, whose view data it copies instead
+    /// of reading it again.
+    pub fn under(h: &Hierarchy, tests: &Tests, u: u32, parent: &Entry) -> Entry {
+        debug_assert_eq!(h.parent[u as usize], parent.node);
+        Entry {
+            node: u,
+            parent: parent.node,
+            own: if h.is_leaf(u) {
+                NodeView::default()
+            } else {
+                tests.node_view(h, u)
+            },
+            up: parent.own,
+        }
+    }
+
     /// The entry is the second child of the parent of `left`, its neighbour: both children of
     /// that parent are on the front.
     #[inline]
