@@ -10,15 +10,16 @@ use std::path::Path;
 /// never leaves a half-written file. Temporary files for `path` that a killed process left behind
 /// (`.NAME.tmp-PID` of a process no longer running) are removed first.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    write_atomic_checked(path, || bytes.to_vec(), || Ok(()))
+    write_atomic_checked(path, |out| out.write_all(bytes), || Ok(()))
 }
 
-/// [`write_atomic`] of the bytes `make` returns, with `check` run alongside making and writing them
-/// (on another thread): the file takes its place only if the check passes, so a slow check (a
-/// tree's consistency) costs no time of its own.
-pub fn write_atomic_checked<B: AsRef<[u8]>>(
+/// [`write_atomic`] of what `write` writes, with `check` run alongside it (on another thread): the
+/// file takes its place only if the check passes, so a slow check (a tree's consistency) costs no
+/// time of its own. `write` gets the file itself: large outputs go straight from their arrays to
+/// the kernel, without a copy of the whole file in memory first.
+pub fn write_atomic_checked(
     path: &Path,
-    make: impl FnOnce() -> B + Send,
+    write: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()> + Send,
     check: impl FnOnce() -> std::io::Result<()> + Send,
 ) -> std::io::Result<()> {
     let dir = path
@@ -33,7 +34,7 @@ pub fn write_atomic_checked<B: AsRef<[u8]>>(
     let tmp = dir.join(format!("{prefix}{}", std::process::id()));
     let (checked, written) = rayon::join(check, || -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(make().as_ref())?;
+        write(&mut f)?;
         f.sync_all()
     });
     let result = checked

@@ -49,6 +49,14 @@ fn crc(bytes: &[u8]) -> u32 {
 
 /// Serialises a tree.
 pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_to(tree, &mut out).expect("writing to memory cannot fail");
+    out
+}
+
+/// Writes a tree's file to `out`: the header and the section table (their checksums computed from
+/// the tree's arrays), then each section straight from the array that holds it.
+pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Result<()> {
     let mut meta = Vec::with_capacity(META_LEN);
     let flags = if tree.has_colors { FLAG_COLORS } else { 0 }
         | if tree.has_normals { FLAG_NORMALS } else { 0 }
@@ -81,27 +89,27 @@ pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
         &parts,
     ];
     let table_end = HEADER + TABLE_ENTRY * sections.len();
-    let mut out =
-        Vec::with_capacity(table_end + 4 + sections.iter().map(|s| s.len()).sum::<usize>());
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
+    let mut head = Vec::with_capacity(table_end + 4);
+    head.extend_from_slice(&MAGIC);
+    head.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    head.extend_from_slice(&(sections.len() as u32).to_le_bytes());
     let mut offset = (table_end + 4) as u64;
     for (tag, s) in SECTIONS.iter().zip(sections) {
-        out.extend_from_slice(tag);
-        out.extend_from_slice(&0u32.to_le_bytes());
-        out.extend_from_slice(&offset.to_le_bytes());
-        out.extend_from_slice(&(s.len() as u64).to_le_bytes());
-        out.extend_from_slice(&crc(s).to_le_bytes());
-        out.extend_from_slice(&0u32.to_le_bytes());
+        head.extend_from_slice(tag);
+        head.extend_from_slice(&0u32.to_le_bytes());
+        head.extend_from_slice(&offset.to_le_bytes());
+        head.extend_from_slice(&(s.len() as u64).to_le_bytes());
+        head.extend_from_slice(&crc(s).to_le_bytes());
+        head.extend_from_slice(&0u32.to_le_bytes());
         offset += s.len() as u64;
     }
-    let table_crc = crc(&out);
-    out.extend_from_slice(&table_crc.to_le_bytes());
+    let table_crc = crc(&head);
+    head.extend_from_slice(&table_crc.to_le_bytes());
+    out.write_all(&head)?;
     for s in sections {
-        out.extend_from_slice(s);
+        out.write_all(s)?;
     }
-    out
+    Ok(())
 }
 
 /// Writes atomically: a temporary file beside `path`, flushed to disk, then renamed over it, so a
@@ -120,7 +128,7 @@ pub fn write(tree: &VertexTree, path: &Path) -> std::io::Result<()> {
             )
         })
     };
-    crate::export::write_atomic_checked(path, || to_bytes(tree), check)
+    crate::export::write_atomic_checked(path, |out| write_to(tree, out), check)
 }
 
 pub fn read(path: &Path) -> Result<VertexTree, FormatError> {
