@@ -86,6 +86,27 @@ fn consistent_checksums_do_not_hide_a_broken_tree() {
     assert!(vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("t")).is_err());
 }
 
+proptest! {
+    /// Any one link of the tree pointed elsewhere is caught, although the check reads each link
+    /// from one side only (a child's parent, never the parent's list of children; the other side
+    /// follows from counting).
+    #[test]
+    fn every_rewired_link_is_caught(node in 0usize..1000, target in 0u32..1000, side in 0usize..3) {
+        let mut tree = small_tree();
+        let count = tree.nodes.len();
+        let u = node % count;
+        let target = target % count as u32;
+        let leaves = tree.leaf_count as usize;
+        let old = if side == 2 || u < leaves {
+            std::mem::replace(&mut tree.nodes[u].parent, target)
+        } else {
+            std::mem::replace(&mut tree.nodes[u].children[side], target)
+        };
+        prop_assume!(old != target);
+        prop_assert!(vtree::check(&tree).is_err(), "node {u} side {side}: {old} -> {target}");
+    }
+}
+
 #[test]
 fn writes_are_atomic_and_leave_no_temporary_files() {
     let dir = std::env::temp_dir().join(format!("vunify-format-{}", std::process::id()));
