@@ -54,6 +54,16 @@ const PLACEMENT_REACH: f64 = 2.0;
 /// fandisk 2.5× the mean error).
 const TIE_BREAK: f64 = 1e-5;
 
+/// The tie-break's squared length is capped at this share of the area the pair's two ends stand
+/// for (their quadrics' weights). A long pair over little area is a long edge of slivers: on a
+/// finely tessellated CAD tube, merging along the tube's straight lines costs nothing, but uncapped
+/// its length made each such merge cost like a real error, so the rings were thinned first and the
+/// tube kept all its rings at 1 % (2.8× meshoptimizer's mean error; 0.5× capped). A hub that grew
+/// over a flat face stands for its whole area, so the cap leaves it priced by length as before.
+/// 0.02 of the table in BENCHMARKS.md's quality section, from 0.01–1 tried: the CAD-like models
+/// and fandisk need ≤ 0.05, cessna's thin wings and fandisk at 1 % vary most with it.
+const TIE_BREAK_AREA: f64 = 0.02;
+
 /// Hybrid-metric weights (Tao et al.'s eq. 2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HybridWeights {
@@ -192,6 +202,8 @@ impl Pricing {
         // A merge without an edge pulls two separate pieces of surface together: each moves by at least
         // half the gap, which the planes of two parallel sheets cannot see.
         let no_edge = if edge { 0.0 } else { 0.25 * gap2 };
+        let area = (a.quadric.weight() + b.quadric.weight()) as f64;
+        let tie = TIE_BREAK * gap2.min(TIE_BREAK_AREA * area);
         // The quadric's error at the position, where the metric has it already.
         let (wa, wb) = (a.weight, b.weight);
         // (position relative to the midpoint, cost, the quadric's error there where the metric has it)
@@ -214,11 +226,11 @@ impl Pricing {
                     }
                 };
                 let e = q.error(best);
-                (best, e + no_edge + TIE_BREAK * gap2, Some(e))
+                (best, e + no_edge + tie, Some(e))
             }
             Metric::QemMidpoint => {
                 let e = q.error(DVec3::ZERO);
-                (DVec3::ZERO, e + no_edge + TIE_BREAK * gap2, Some(e))
+                (DVec3::ZERO, e + no_edge + tie, Some(e))
             }
             Metric::EdgeLength => (DVec3::ZERO, gap2 + no_edge, None),
             Metric::Hybrid => {
