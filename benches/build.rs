@@ -171,7 +171,10 @@ type Loaded = (
     vtree::VertexTree,
 );
 
-/// Hausdorff distance of `extract` against meshopt at the same triangle count.
+/// Hausdorff distance of `extract` against meshopt at the same triangle count. A mesh with vertex
+/// colours gets two rows a level, each against the peer doing the same job: the tree built from
+/// shape alone (`--color-weight 0`) against `meshopt::simplify`, and the default tree, which weighs
+/// colour, against `meshopt::simplify_with_attributes` with the colours at weight 1.
 fn quality_table(loaded: &[Loaded], samples: usize) {
     println!(
         "\n## Quality: Hausdorff distance (% of bbox diagonal) of `extract` vs meshopt at the same triangle count\n"
@@ -181,29 +184,72 @@ fn quality_table(loaded: &[Loaded], samples: usize) {
     );
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (m, mesh, tree, greedy_tree) in loaded {
+        let shape_only = mesh.colors.is_some().then(|| {
+            let options = BuildOptions {
+                color_weight: 0.0,
+                ..Default::default()
+            };
+            let shape = |schedule| {
+                let options = BuildOptions {
+                    schedule,
+                    ..options
+                };
+                vtree::build(mesh, &options, &mut |_, _| {})
+                    .expect("build")
+                    .0
+            };
+            (
+                shape(vtree::Schedule::Passes),
+                shape(vtree::Schedule::Greedy),
+            )
+        });
         for (label, ratio) in [("10 %", 0.10), ("1 %", 0.01)] {
             let target = (mesh.triangle_count() as f64 * ratio) as usize;
-            let mo = common::meshopt_simplify(mesh, target);
-            let cut = vtree::cut_at_triangles(tree, mo.triangle_count() as u32);
-            let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
-            let hm = vunify::measure::hausdorff(mesh, &mo, samples).symmetric;
-            let gcut = vtree::cut_at_triangles(greedy_tree, mo.triangle_count() as u32);
-            let hg = vunify::measure::hausdorff(mesh, &gcut.mesh, samples).symmetric;
-            println!(
-                "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} | {:.4} / {:.4} |",
-                cut.mesh.triangle_count(),
-                mo.triangle_count(),
-                100.0 * hv.mean,
-                100.0 * hm.mean,
-                hv.mean / hm.mean.max(1e-12),
-                100.0 * hv.max,
-                100.0 * hm.max,
-                hv.max / hm.max.max(1e-12),
-                100.0 * hg.mean,
-                100.0 * hg.max
-            );
+            match &shape_only {
+                None => {
+                    let peer = common::meshopt_simplify(mesh, target);
+                    quality_row(m, label, mesh, [tree, greedy_tree], &peer, samples);
+                }
+                Some((tree0, greedy0)) => {
+                    let peer = common::meshopt_simplify(mesh, target);
+                    let shape = format!("{label}, shape only");
+                    quality_row(m, &shape, mesh, [tree0, greedy0], &peer, samples);
+                    let peer = common::meshopt_with_colours(mesh, target);
+                    let colour = format!("{label}, with colour");
+                    quality_row(m, &colour, mesh, [tree, greedy_tree], &peer, samples);
+                }
+            }
         }
     }
+}
+
+/// One row of the quality table: the tree's and the greedy tree's cuts at the peer's count.
+fn quality_row(
+    m: &str,
+    label: &str,
+    mesh: &vunify::mesh::Mesh,
+    [tree, greedy_tree]: [&vtree::VertexTree; 2],
+    peer: &vunify::mesh::Mesh,
+    samples: usize,
+) {
+    let cut = vtree::cut_at_triangles(tree, peer.triangle_count() as u32);
+    let hv = vunify::measure::hausdorff(mesh, &cut.mesh, samples).symmetric;
+    let hm = vunify::measure::hausdorff(mesh, peer, samples).symmetric;
+    let gcut = vtree::cut_at_triangles(greedy_tree, peer.triangle_count() as u32);
+    let hg = vunify::measure::hausdorff(mesh, &gcut.mesh, samples).symmetric;
+    println!(
+        "| {m} | {label} | {} / {} | {:.4} | {:.4} | {:.2} | {:.4} | {:.4} | {:.2} | {:.4} / {:.4} |",
+        cut.mesh.triangle_count(),
+        peer.triangle_count(),
+        100.0 * hv.mean,
+        100.0 * hm.mean,
+        hv.mean / hm.mean.max(1e-12),
+        100.0 * hv.max,
+        100.0 * hm.max,
+        hv.max / hm.max.max(1e-12),
+        100.0 * hg.mean,
+        100.0 * hg.max
+    );
 }
 
 /// The four metrics side by side, at 10 % and 1 %.

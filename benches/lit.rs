@@ -22,36 +22,6 @@ use vunify::vtree::{self, BuildOptions};
 
 const SIZE: [u32; 2] = [640, 480];
 
-/// meshoptimizer with the vertex colours as attributes (weight 1) to `target` triangles.
-fn meshopt_with_colours(mesh: &Mesh, target: usize) -> Mesh {
-    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
-        .expect("positions");
-    let colours: Vec<f32> = mesh
-        .colors
-        .as_ref()
-        .expect("a lit mesh")
-        .iter()
-        .flat_map(|c| c.to_array())
-        .collect();
-    let out = meshopt::simplify_with_attributes_and_locks(
-        &indices,
-        &adapter,
-        &colours,
-        &[1.0, 1.0, 1.0],
-        12,
-        &vec![false; mesh.positions.len()],
-        target * 3,
-        f32::MAX,
-        meshopt::SimplifyOptions::empty(),
-        None,
-    );
-    let triangles = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let mut m = Mesh::from_triangles(mesh.positions.clone(), triangles);
-    m.colors = mesh.colors.clone();
-    m
-}
-
 /// The mesh drawn whole from the views at times `views` of the camera path (one tree, one upload).
 fn pictures(
     gpu: &Gpu,
@@ -131,7 +101,7 @@ fn main() {
         };
         let (ours, _) = simplify_superfaces(&lit, &options).expect("superfaces");
         let n = ours.triangle_count();
-        let peer = meshopt_with_colours(&lit, n);
+        let peer = common::meshopt_with_colours(&lit, n);
         let cut = vtree::cut_at_triangles(&tree, n as u32).mesh;
         for (name, mesh) in [
             ("superfaces", &ours),

@@ -345,8 +345,8 @@ fn real_models_build_to_one_root() {
 ///
 /// With the default colour weight, each node's error covers the colour of every leaf below it
 /// (`weight · diagonal · largest channel difference`), so the runtime refines wherever the colours
-/// it would blend differ; and the halves merge within themselves before across the edge (Ward's
-/// criterion in the price), where from shape alone many merges cross it.
+/// it would blend differ; and the halves merge within themselves before across the edge (the colour
+/// quadric in the price), where from shape alone many merges cross it.
 #[test]
 fn colour_counts_in_the_error() {
     let mut mesh = grid(8, 8, |_, _| 0.0);
@@ -407,4 +407,47 @@ fn colour_counts_in_the_error() {
         with <= 8 && without > 2 * with,
         "{with} merges across the colour edge, {without} from shape alone"
     );
+}
+
+/// A shading ramp: a flat 8 × 8 grid whose red runs linearly from 0 at x = 0 to 1 at x = 8 (green
+/// and blue likewise along y, and constant):
+///
+/// ```text
+///   y ┌───────────────┐
+///     │ ░░▒▒▓▓██ red →│   flat, and every channel linear over the whole square
+///     └───────────────┘ x
+///     0               8
+/// ```
+///
+/// One linear function spans every triangle, so the colour quadrics price no merge for colour and
+/// the order is shape's alone (the same tree as with `--color-weight 0`, colours aside), and every
+/// node, wherever it is placed, is drawn in the ramp's colour at its own position.
+#[test]
+fn a_colour_ramp_merges_for_free_and_keeps_its_colours() {
+    let mut mesh = grid(8, 8, |_, _| 0.0);
+    let ramp = |p: Vec3| Vec3::new(p.x / 8.0, 1.0 - p.y / 8.0, 0.25);
+    mesh.colors = Some(mesh.positions.iter().map(|&p| ramp(p)).collect());
+    let build = |color_weight| {
+        let options = BuildOptions {
+            color_weight,
+            ..Default::default()
+        };
+        vtree::build(&mesh, &options, &mut |_, _| {}).unwrap().0
+    };
+    let (with, without) = (build(BuildOptions::default().color_weight), build(0.0));
+    let children = |t: &VertexTree| t.nodes.iter().map(|n| n.children).collect::<Vec<_>>();
+    assert_eq!(
+        children(&with),
+        children(&without),
+        "colour changed the order"
+    );
+    for (u, node) in with.nodes.iter().enumerate() {
+        let want = ramp(Vec3::from_array(node.position));
+        let got = Vec3::from_array(node.color);
+        assert!(
+            (got - want).abs().max_element() < 1e-5,
+            "node {u} at {:?}: colour {got}, the ramp has {want}",
+            node.position
+        );
+    }
 }

@@ -70,3 +70,33 @@ pub fn meshopt_simplify(mesh: &vunify::mesh::Mesh, target: usize) -> vunify::mes
         ..mesh.clone()
     }
 }
+
+/// meshoptimizer with the vertex colours as attributes (weight 1) to `target` triangles.
+pub fn meshopt_with_colours(mesh: &vunify::mesh::Mesh, target: usize) -> vunify::mesh::Mesh {
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&mesh.positions), 12, 0)
+        .expect("positions");
+    let colours: Vec<f32> = mesh
+        .colors
+        .as_ref()
+        .expect("a lit mesh")
+        .iter()
+        .flat_map(|c| c.to_array())
+        .collect();
+    let out = meshopt::simplify_with_attributes_and_locks(
+        &indices,
+        &adapter,
+        &colours,
+        &[1.0, 1.0, 1.0],
+        12,
+        &vec![false; mesh.positions.len()],
+        target * 3,
+        f32::MAX,
+        meshopt::SimplifyOptions::empty(),
+        None,
+    );
+    let triangles = out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let mut m = vunify::mesh::Mesh::from_triangles(mesh.positions.clone(), triangles);
+    m.colors = mesh.colors.clone();
+    m
+}

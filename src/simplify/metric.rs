@@ -1,5 +1,6 @@
 //! What a merge costs and where the merged vertex goes: the four metrics `--metric` chooses from.
 
+use super::color_quadric::LocalColorQuadric;
 use super::features::{CREASE_WEIGHT, DART_WEIGHT};
 use super::quadric::{LocalQuadric, Quadric};
 use glam::{DVec3, Vec3};
@@ -103,24 +104,16 @@ pub struct PairEnd {
     pub position: Vec3,
     /// Table 1 weight.
     pub weight: f32,
-    /// The surface's mean colour around the vertex, 8 bits per channel (enough to order merges:
-    /// node colours are kept in full elsewhere); priced only when [`Pricing::color_scale`] is set.
-    pub color: [u8; 3],
 }
 
 impl PairEnd {
-    /// `quadric` is about the world's origin; `color` is linear RGB in `[0, 1]`.
-    pub fn new(quadric: &Quadric, position: Vec3, weight: f32, color: Vec3) -> PairEnd {
+    /// `quadric` is about the world's origin.
+    pub fn new(quadric: &Quadric, position: Vec3, weight: f32) -> PairEnd {
         PairEnd {
             quadric: LocalQuadric::new(&quadric.shifted(position.as_dvec3())),
             position,
             weight,
-            color: to_u8(color),
         }
-    }
-
-    fn color(&self) -> Vec3 {
-        Vec3::from_array(self.color.map(f32::from)) / 255.0
     }
 
     /// The quadric about `origin`.
@@ -134,65 +127,45 @@ impl PairEnd {
     pub fn merged(a: &PairEnd, b: &PairEnd, position: Vec3) -> PairEnd {
         let p = position.as_dvec3();
         let (qa, qb) = (a.quadric_about(p), b.quadric_about(p));
-        // Equal colours (every end of a mesh without colours) blend to themselves.
-        let color = if a.color == b.color {
-            a.color
-        } else {
-            to_u8(
-                a.color()
-                    .lerp(b.color(), share_of(qa.weight, qb.weight) as f32),
-            )
-        };
         PairEnd {
             quadric: LocalQuadric::new(&(qa + qb)),
             position,
             weight: merged_weight(a.weight, b.weight),
-            color,
         }
     }
-}
 
-fn to_u8(c: Vec3) -> [u8; 3] {
-    (c.clamp(Vec3::ZERO, Vec3::ONE) * 255.0)
-        .round()
-        .to_array()
-        .map(|x| x as u8)
-}
-
-/// `b`'s share of a blend weighted `a : b` (half each when both are 0).
-fn share_of(a: f64, b: f64) -> f64 {
-    if a + b > 0.0 { b / (a + b) } else { 0.5 }
+    /// The colour quadric that `a`'s and `b`'s (`ca`, `cb`) merge into, about `position`.
+    pub fn merged_color(
+        (a, ca): (&PairEnd, &LocalColorQuadric),
+        (b, cb): (&PairEnd, &LocalColorQuadric),
+        position: Vec3,
+    ) -> LocalColorQuadric {
+        let p = position.as_dvec3();
+        LocalColorQuadric::new(&(ca.about(a.position, p) + cb.about(b.position, p)))
+    }
 }
 
 pub struct Pricing {
     pub metric: Metric,
     pub hybrid: HybridWeights,
     pub mean_edge_length: f32,
-    /// Length that a colour difference of 1 (a full channel) costs like, 0 to ignore colour. See
-    /// [`color_cost`].
+    /// Length that a colour difference of 1 (a full channel) costs like, 0 to ignore colour: a
+    /// merge's price gains `color_scale²` times the mean squared colour residual of its colour
+    /// quadrics at the merged vertex (see [`super::color_quadric`]), as its shape price is the
+    /// mean squared distance to its planes.
     pub color_scale: f32,
 }
 
-/// What merging two ends costs in colour, in the quadrics' units (squared length × area): Ward's
-/// criterion, the growth of `Σ area · |colour − mean colour|²` when the two ends' areas (their quadrics'
-/// weights) and mean colours are pooled — the colour part of a Garland–Heckbert 1998 attribute quadric
-/// with the spatial variation left out — times `scale²`.
-pub fn color_cost(a: &PairEnd, b: &PairEnd, scale: f32) -> f64 {
-    if scale == 0.0 || a.color == b.color {
-        return 0.0;
-    }
-    let (wa, wb) = (a.quadric.weight() as f64, b.quadric.weight() as f64);
-    let pooled = if wa + wb > 0.0 {
-        wa * wb / (wa + wb)
-    } else {
-        0.0
-    };
-    let scale = scale as f64;
-    pooled * (a.color() - b.color()).as_dvec3().length_squared() * scale * scale
-}
-
 impl Pricing {
-    pub fn price(&self, a: &PairEnd, b: &PairEnd, edge: bool) -> Candidate {
+    /// What merging `a` and `b` costs and where the merged vertex goes; `colors`, the ends' colour
+    /// quadrics for a mesh with colours.
+    pub fn price(
+        &self,
+        a: &PairEnd,
+        b: &PairEnd,
+        edge: bool,
+        colors: Option<[&LocalColorQuadric; 2]>,
+    ) -> Candidate {
         let (da, db) = (a.position.as_dvec3(), b.position.as_dvec3());
         let mid = 0.5 * (da + db);
         // Both quadrics about the midpoint: positions below are relative to it.
@@ -271,8 +244,16 @@ impl Pricing {
         } else {
             (mid + offset).as_vec3()
         };
+        let color = match colors {
+            Some([ca, cb]) if self.color_scale > 0.0 => {
+                let q = ca.about(a.position, mid) + cb.about(b.position, mid);
+                let scale = self.color_scale as f64;
+                scale * scale * q.mean_residual(offset)
+            }
+            _ => 0.0,
+        };
         Candidate {
-            cost: cost + color_cost(a, b, self.color_scale),
+            cost: cost + color,
             position,
             error,
         }

@@ -4,6 +4,7 @@
 pub mod bounded;
 pub mod bounds;
 pub mod collapse;
+pub mod color_quadric;
 pub mod envelope;
 pub mod features;
 pub mod geometry;

@@ -34,15 +34,20 @@ const SINGULAR_DET: f64 = 1e-6;
 impl Quadric {
     /// The quadric of the plane with unit normal `n` through `point`, with weight `w`.
     pub fn from_plane(n: DVec3, point: DVec3, w: f64) -> Quadric {
-        let d = -n.dot(point);
+        Quadric::from_linear(n, -n.dot(point), w)
+    }
+
+    /// The quadric of `w · (g·x + d)²`, any `g` (a plane's when `g` is a unit normal; a colour
+    /// channel's linear function in [`super::color_quadric`]).
+    pub fn from_linear(g: DVec3, d: f64, w: f64) -> Quadric {
         Quadric {
-            a00: w * n.x * n.x,
-            a01: w * n.x * n.y,
-            a02: w * n.x * n.z,
-            a11: w * n.y * n.y,
-            a12: w * n.y * n.z,
-            a22: w * n.z * n.z,
-            b: [w * n.x * d, w * n.y * d, w * n.z * d],
+            a00: w * g.x * g.x,
+            a01: w * g.x * g.y,
+            a02: w * g.x * g.z,
+            a11: w * g.y * g.y,
+            a12: w * g.y * g.z,
+            a22: w * g.z * g.z,
+            b: [w * g.x * d, w * g.y * d, w * g.z * d],
             c: w * d * d,
             weight: w,
         }
@@ -75,6 +80,23 @@ impl Quadric {
             self.a01 * v.x + self.a11 * v.y + self.a12 * v.z,
             self.a02 * v.x + self.a12 * v.y + self.a22 * v.z,
         )
+    }
+
+    /// Whether every term is finite.
+    pub fn is_finite(&self) -> bool {
+        [
+            self.a00,
+            self.a01,
+            self.a02,
+            self.a11,
+            self.a12,
+            self.a22,
+            self.c,
+            self.weight,
+        ]
+        .into_iter()
+        .chain(self.b)
+        .all(f64::is_finite)
     }
 
     /// `vᵀ Q v`, clamped at zero (rounding can make it slightly negative).

@@ -8,6 +8,7 @@ use super::queue::{Entry, NO_EDGE, SLOT, key};
 use super::{Builder, NONE};
 use crate::simplify::collapse::gather_neighbors;
 use crate::simplify::collapse::{Collapser, Neighbor};
+use crate::simplify::color_quadric::LocalColorQuadric;
 use crate::simplify::metric::{Candidate, PairEnd, Pricing};
 use crate::vtree::Node;
 use glam::Vec3;
@@ -41,6 +42,8 @@ pub(super) struct PassView<'a> {
     pub(super) leaves: &'a [Vec3],
     /// Every slot's pricing data as the pass began (the survivors' new data go to [`Places::ends`]).
     pub(super) ends: &'a [PairEnd],
+    /// Every slot's colour quadric likewise (empty without colours).
+    pub(super) colors: &'a [LocalColorQuadric],
     /// The ends of the pairs chosen in the pass.
     pub(super) picked: &'a SlotSet,
     pub(super) pricing: Pricing,
@@ -53,6 +56,8 @@ pub(super) struct Places<'a> {
     pub(super) kept: &'a mut [Samples],
     /// The survivors' pricing data ([`PairEnd::merged`]).
     pub(super) ends: &'a mut [PairEnd],
+    /// The survivors' colour quadrics (empty without colours).
+    pub(super) colors: &'a mut [LocalColorQuadric],
     /// Every pair of the survivor priced: none waits for the pass to end.
     pub(super) priced: &'a mut [bool],
 }
@@ -67,12 +72,16 @@ impl<'a> Places<'a> {
         self.kept = rest;
         let (ends, rest) = std::mem::take(&mut self.ends).split_at_mut(n);
         self.ends = rest;
+        let colors = std::mem::take(&mut self.colors);
+        let (colors, rest) = colors.split_at_mut(n.min(colors.len()));
+        self.colors = rest;
         let (priced, rest) = std::mem::take(&mut self.priced).split_at_mut(n);
         self.priced = rest;
         Places {
             nodes,
             kept,
             ends,
+            colors,
             priced,
         }
     }
@@ -183,21 +192,28 @@ impl FinishBatch {
             }
             let (fan_end, extra_end) = (self.fan_ends[i], self.extra_ends[i]);
             let fan = &self.fans[fan_start as usize..fan_end as usize];
+            let (s, g) = (merged.slot as usize, merged.gone as usize);
+            let color = (!view.colors.is_empty()).then(|| {
+                PairEnd::merged_color(
+                    (&view.ends[s], &view.colors[s]),
+                    (&view.ends[g], &view.colors[g]),
+                    merged.position,
+                )
+            });
             out.kept[i] = finish_node(
                 &mut node,
                 view.done,
                 &merged,
                 fan,
                 view.leaves,
-                view.pricing.color_scale,
+                (view.pricing.color_scale, color.and_then(|c| c.best_color())),
             );
             out.nodes[i] = node;
-            let end = PairEnd::merged(
-                &view.ends[merged.slot as usize],
-                &view.ends[merged.gone as usize],
-                merged.position,
-            );
+            let end = PairEnd::merged(&view.ends[s], &view.ends[g], merged.position);
             out.ends[i] = end;
+            if let Some(c) = color {
+                out.colors[i] = c;
+            }
 
             gather_neighbors(
                 merged.slot,
@@ -213,9 +229,11 @@ impl FinishBatch {
                     all = false;
                     continue;
                 }
+                let partner = n.slot as usize;
+                let colors = color.as_ref().map(|c| [c, &view.colors[partner]]);
                 let cand = view
                     .pricing
-                    .price(&end, &view.ends[n.slot as usize], n.edge);
+                    .price(&end, &view.ends[partner], n.edge, colors);
                 entries.push(Entry {
                     cost: key(cand.cost),
                     a: merged.slot,
@@ -279,12 +297,17 @@ impl Builder<'_> {
         let (done, new) = nodes.split_at_mut(first_new);
         // Read-only while the pass merges; each merge's new data waits in `new_ends`.
         let mut new_ends = vec![PairEnd::default(); chosen.len()];
+        let colored = !self.colors.is_empty();
+        let mut new_colors =
+            vec![LocalColorQuadric::default(); if colored { chosen.len() } else { 0 }];
         let ends = std::mem::take(&mut self.ends);
+        let colors = std::mem::take(&mut self.colors);
         let PassMarks { picked, changed } = marks;
         let view = PassView {
             done,
             leaves: &self.mesh.positions,
             ends: &ends,
+            colors: &colors,
             picked,
             pricing: self.pricing(),
         };
@@ -308,6 +331,7 @@ impl Builder<'_> {
                 nodes: new,
                 kept: &mut kept,
                 ends: &mut new_ends,
+                colors: &mut new_colors,
                 priced: &mut priced_early,
             };
             let mut entries = Vec::new();
@@ -361,6 +385,7 @@ impl Builder<'_> {
             entries
         });
         self.ends = ends;
+        self.colors = colors;
         nodes.truncate(first_new + survivors.len());
         self.nodes = nodes;
         for (k, (&slot, kept)) in survivors.iter().zip(kept).enumerate() {
@@ -370,6 +395,9 @@ impl Builder<'_> {
             }
             self.samples[slot as usize] = kept;
             self.ends[slot as usize] = new_ends[k];
+            if colored {
+                self.colors[slot as usize] = new_colors[k];
+            }
         }
         PassResult {
             early,

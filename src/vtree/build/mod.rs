@@ -32,6 +32,7 @@ use super::{NONE, Node, PartInfo, VertexTree};
 use crate::mesh::Mesh;
 use crate::simplify::Metric;
 use crate::simplify::collapse::Collapser;
+use crate::simplify::color_quadric::{ColorQuadric, LocalColorQuadric};
 use crate::simplify::features;
 use crate::simplify::metric::{Candidate, HybridWeights, PairEnd, Pricing};
 use crate::simplify::pairs::close_pairs;
@@ -74,7 +75,7 @@ pub struct BuildOptions {
     /// How much vertex colour counts, for meshes that have it (lit meshes, scans with colour): a
     /// colour difference of one full channel costs like a deviation of this many bounding-box
     /// diagonals, both in the merge order and in each node's error, so the runtime's screen-space
-    /// test keeps colour edges (shadows) as it keeps shape. Default 0.1 (see docs/VERTEX_TREE.md);
+    /// test keeps colour edges (shadows) as it keeps shape. Default 0.02 (see docs/VERTEX_TREE.md);
     /// 0 builds from shape alone.
     pub color_weight: f32,
 }
@@ -88,7 +89,7 @@ impl Default for BuildOptions {
             max_pairs_per_vertex: 2,
             sharp_angle_deg: 120.0,
             hybrid: HybridWeights::default(),
-            color_weight: 0.15,
+            color_weight: 0.02,
         }
     }
 }
@@ -154,6 +155,9 @@ struct Builder<'m> {
     collapser: Collapser,
     /// Each slot's quadric (about its position) and Table 1 weight, as pricing reads them.
     ends: Vec<PairEnd>,
+    /// Each slot's colour quadric, about its position: empty for a mesh without colours (or with
+    /// colour weighed at 0).
+    colors: Vec<LocalColorQuadric>,
     /// Surface area each slot stands for: the weight of attribute averages.
     mass: Vec<f32>,
     /// The tree node each live slot currently is.
@@ -185,8 +189,10 @@ impl Builder<'_> {
     }
 
     fn price(&self, a: u32, b: u32, edge: bool) -> Candidate {
+        let (a, b) = (a as usize, b as usize);
+        let colors = (!self.colors.is_empty()).then(|| [&self.colors[a], &self.colors[b]]);
         self.pricing()
-            .price(&self.ends[a as usize], &self.ends[b as usize], edge)
+            .price(&self.ends[a], &self.ends[b], edge, colors)
     }
 
     fn merges(&self) -> u32 {
@@ -200,11 +206,18 @@ impl Builder<'_> {
         let u = nodes.len() as u32;
         let (mut node, merged) = self.merge_topology(a, b, cand, u, pending);
         let survivor = merged.slot;
-        self.ends[survivor as usize] = PairEnd::merged(
-            &self.ends[survivor as usize],
-            &self.ends[merged.gone as usize],
-            merged.position,
-        );
+        let (s, g) = (survivor as usize, merged.gone as usize);
+        let color = (!self.colors.is_empty()).then(|| {
+            PairEnd::merged_color(
+                (&self.ends[s], &self.colors[s]),
+                (&self.ends[g], &self.colors[g]),
+                merged.position,
+            )
+        });
+        if let Some(c) = color {
+            self.colors[s] = c;
+        }
+        self.ends[s] = PairEnd::merged(&self.ends[s], &self.ends[g], merged.position);
         let mut fan = Vec::new();
         fan_of(&self.collapser, survivor, &mut fan);
         self.samples[survivor as usize] = finish_node(
@@ -213,7 +226,7 @@ impl Builder<'_> {
             &merged,
             &fan,
             &self.mesh.positions,
-            self.color_scale,
+            (self.color_scale, color.and_then(|c| c.best_color())),
         );
         for c in node.children {
             nodes[c as usize].parent = u;
@@ -434,9 +447,12 @@ fn build_unit(
         .par_iter()
         .zip(&vertex_weight)
         .zip(&mesh.positions)
-        .enumerate()
-        .map(|(v, ((q, &w), &p))| PairEnd::new(q, p, w, Vec3::from_array(nodes[v].color)))
+        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
         .collect();
+    let colors = match &mesh.colors {
+        Some(colors) if options.color_weight > 0.0 => color_quadrics(mesh, colors),
+        _ => Vec::new(),
+    };
     drop((quadrics, vertex_weight));
 
     // 3-5. Merge until one vertex is left.
@@ -444,6 +460,7 @@ fn build_unit(
         mesh,
         collapser,
         ends,
+        colors,
         mass,
         node_of: (0..n as u32).collect(),
         nodes,
@@ -534,4 +551,24 @@ impl Builder<'_> {
         stats.depth = tree.depth();
         (tree, stats)
     }
+}
+
+/// Each vertex's colour quadric (see [`crate::simplify::color_quadric`]): its triangles' summed,
+/// about the vertex.
+fn color_quadrics(mesh: &Mesh, colors: &[Vec3]) -> Vec<LocalColorQuadric> {
+    let mut sums = vec![ColorQuadric::default(); mesh.positions.len()];
+    for t in &mesh.triangles {
+        let q = ColorQuadric::from_triangle(
+            t.map(|v| mesh.positions[v as usize]),
+            // Colours are meant to lie in [0, 1]; an input beyond is read as its nearest.
+            t.map(|v| colors[v as usize].clamp(Vec3::ZERO, Vec3::ONE)),
+        );
+        for v in t {
+            sums[*v as usize] += q;
+        }
+    }
+    sums.par_iter()
+        .zip(&mesh.positions)
+        .map(|(q, p)| LocalColorQuadric::new(&q.shifted(p.as_dvec3())))
+        .collect()
 }

@@ -78,14 +78,15 @@ pub(super) fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle
 
 /// Colour, normal, bounding sphere, normal cone and error of a new node, from its (finished)
 /// children and `fan`, the triangles around its slot right after the merge ([`fan_of`]).
-/// `color_scale` is the length a full channel's colour difference counts as (0: shape only).
+/// `color_scale` is the length a full channel's colour difference counts as (0: shape only);
+/// `color`, the node's colour when its colour quadric has one (else its children's blend).
 pub(super) fn finish_node(
     node: &mut Node,
     done: &[Node],
     merged: &Merged,
     fan: &[FanTriangle],
     leaves: &[Vec3],
-    color_scale: f32,
+    (color_scale, color): (f32, Option<Vec3>),
 ) -> Samples {
     let Merged {
         blend, ref pending, ..
@@ -98,7 +99,7 @@ pub(super) fn finish_node(
     node.error = node.error.max(ns.error).max(nt.error);
     let mix =
         |x: [f32; 3], y: [f32; 3]| Vec3::from_array(x) * blend[0] + Vec3::from_array(y) * blend[1];
-    node.color = mix(ns.color, nt.color).to_array();
+    node.color = color.unwrap_or_else(|| mix(ns.color, nt.color)).to_array();
     node.normal = mix(ns.normal, nt.normal).normalize_or_zero().to_array();
     let sphere = sphere_of(ns)
         .union(sphere_of(nt))

@@ -1,0 +1,238 @@
+//! Colour in a merge's price: the colour half of Michael Garland and Paul S. Heckbert's attribute
+//! quadrics (*Simplifying surfaces with color and texture using quadric error metrics*, IEEE
+//! Visualization 98), in the compact form of Hugues Hoppe (*New quadric metric for simplifying meshes
+//! with appearance attributes*, IEEE Visualization 99).
+//!
+//! Over each triangle, each colour channel is the linear function `g·x + d` that takes the corners'
+//! colours at the corners (`g` in the triangle's plane). A vertex's quadric sums
+//! `area · (s − g·x − d)²` over its triangles and the three channels: how far a colour `s` drawn at
+//! `x` strays from the colours the input has there. For a position `x` the best `s` is the
+//! area-weighted mean of the triangles' functions at `x`, and what is left is
+//! [`ColorQuadric::residual`]: zero where one linear gradient spans all the triangles (a smooth
+//! shading ramp merges for free), and Ward's `Σ area · |c − mean|²` where each triangle is one flat
+//! colour.
+
+use super::quadric::{LocalQuadric, Quadric};
+use glam::{DVec3, DVec4, Vec3};
+use std::ops::Add;
+
+/// The colour quadric about some origin, in `f64`, as pricing works with it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ColorQuadric {
+    /// `Σ area · (g·x + d)²` over the triangles and channels, as a quadric in `x`; its weight is
+    /// `Σ area` (counted once, not per channel).
+    spatial: Quadric,
+    /// Per channel, `(Σ area · g, Σ area · d)`.
+    linear: [DVec4; 3],
+}
+
+impl ColorQuadric {
+    /// The quadric of one triangle with corner colours `c` (linear RGB), weighted by its area;
+    /// zero for a degenerate triangle.
+    pub fn from_triangle(p: [Vec3; 3], c: [Vec3; 3]) -> ColorQuadric {
+        let [p0, p1, p2] = p.map(|x| x.as_dvec3());
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let (a, b, cc) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        // det = |e1 × e2|² = (2 area)².
+        let det = a * cc - b * b;
+        let area = 0.5 * det.max(0.0).sqrt();
+        if !(area > 0.0 && det.is_finite()) {
+            return ColorQuadric::default();
+        }
+        let mut out = ColorQuadric::default();
+        for k in 0..3 {
+            let [c0, c1, c2] = c.map(|x| x[k] as f64);
+            // g = α e1 + β e2 with g·e1 = c1 − c0 and g·e2 = c2 − c0.
+            let (d1, d2) = (c1 - c0, c2 - c0);
+            let alpha = (cc * d1 - b * d2) / det;
+            let beta = (a * d2 - b * d1) / det;
+            let g = alpha * e1 + beta * e2;
+            let d = c0 - g.dot(p0);
+            out.spatial += Quadric::from_linear(g, d, area);
+            out.linear[k] = area * g.extend(d);
+        }
+        out.spatial.weight = area;
+        // A sliver with corner colours far apart has a steep gradient; beyond `f64` it counts for
+        // nothing rather than poison every sum it joins.
+        let finite = out.spatial.is_finite() && out.linear.iter().all(|l| l.is_finite());
+        if finite { out } else { ColorQuadric::default() }
+    }
+
+    /// The area the quadric stands for.
+    pub fn weight(&self) -> f64 {
+        self.spatial.weight
+    }
+
+    /// The same quadric about the origin moved by `t`.
+    pub fn shifted(&self, t: DVec3) -> ColorQuadric {
+        ColorQuadric {
+            spatial: self.spatial.shifted(t),
+            linear: self
+                .linear
+                .map(|l| l.truncate().extend(l.w + l.truncate().dot(t))),
+        }
+    }
+
+    /// The best colour to draw at `x`: the area-weighted mean of the triangles' colour functions
+    /// there, clamped to `[0, 1]`; `None` for a quadric of no area.
+    pub fn best_color(&self, x: DVec3) -> Option<Vec3> {
+        let w = self.spatial.weight;
+        (w > 0.0).then(|| {
+            let s = self
+                .linear
+                .map(|l| ((l.truncate().dot(x) + l.w) / w).clamp(0.0, 1.0) as f32);
+            Vec3::from_array(s)
+        })
+    }
+
+    /// `Σ area · |s − colour|²` at `x` for the best colour `s` there (see the module's text), in
+    /// squared channel units times area; never negative.
+    pub fn residual(&self, x: DVec3) -> f64 {
+        let w = self.spatial.weight;
+        if w <= 0.0 {
+            return 0.0;
+        }
+        let fitted: f64 = self
+            .linear
+            .iter()
+            .map(|l| {
+                let s = l.truncate().dot(x) + l.w;
+                s * s
+            })
+            .sum();
+        (self.spatial.eval(x) - fitted / w).max(0.0)
+    }
+}
+
+impl ColorQuadric {
+    /// [`ColorQuadric::residual`] per unit of area: the mean squared colour error at `x`.
+    pub fn mean_residual(&self, x: DVec3) -> f64 {
+        let w = self.spatial.weight;
+        if w > 0.0 { self.residual(x) / w } else { 0.0 }
+    }
+}
+
+impl Add for ColorQuadric {
+    type Output = ColorQuadric;
+    fn add(self, o: ColorQuadric) -> ColorQuadric {
+        ColorQuadric {
+            spatial: self.spatial + o.spatial,
+            linear: [0, 1, 2].map(|k| self.linear[k] + o.linear[k]),
+        }
+    }
+}
+
+impl std::ops::AddAssign for ColorQuadric {
+    fn add_assign(&mut self, o: ColorQuadric) {
+        *self = *self + o;
+    }
+}
+
+/// A [`ColorQuadric`] kept in `f32` about its own vertex, beside the vertex's
+/// [`PairEnd`](super::metric::PairEnd) (92 bytes; only meshes with colours have them). About the
+/// vertex the linear parts are the colours there, so `f32` keeps their precision.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LocalColorQuadric {
+    spatial: LocalQuadric,
+    linear: [[f32; 4]; 3],
+}
+
+impl LocalColorQuadric {
+    /// The best colour to draw at the vertex (see [`ColorQuadric::best_color`]).
+    pub fn best_color(&self) -> Option<Vec3> {
+        let w = self.spatial.weight() as f64;
+        (w > 0.0).then(|| {
+            Vec3::from_array(
+                self.linear
+                    .map(|l| (l[3] as f64 / w).clamp(0.0, 1.0) as f32),
+            )
+        })
+    }
+
+    /// `q`, already expressed about the vertex, rounded to `f32`.
+    pub fn new(q: &ColorQuadric) -> LocalColorQuadric {
+        LocalColorQuadric {
+            spatial: LocalQuadric::new(&q.spatial),
+            linear: q.linear.map(|l| l.as_vec4().to_array()),
+        }
+    }
+
+    /// Back in `f64`, about the vertex at `at`, then moved to be about `origin`.
+    pub fn about(&self, at: Vec3, origin: DVec3) -> ColorQuadric {
+        ColorQuadric {
+            spatial: self.spatial.get(),
+            linear: self.linear.map(|l| glam::Vec4::from_array(l).as_dvec4()),
+        }
+        .shifted(origin - at.as_dvec3())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles of the unit square, coloured by one linear ramp (red = x) or split flat.
+    ///
+    /// ```text
+    ///   (0,1) ┌──┐ (1,1)
+    ///         │ ╱│
+    ///   (0,0) └──┘ (1,0)
+    /// ```
+    fn square(colour: impl Fn(Vec3) -> Vec3) -> ColorQuadric {
+        let p = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let c = p.map(&colour);
+        ColorQuadric::from_triangle([p[0], p[1], p[2]], [c[0], c[1], c[2]])
+            + ColorQuadric::from_triangle([p[0], p[2], p[3]], [c[0], c[2], c[3]])
+    }
+
+    #[test]
+    fn a_linear_ramp_costs_nothing_anywhere() {
+        let q = square(|p| Vec3::new(p.x, 0.5, 1.0 - p.y));
+        assert!((q.weight() - 1.0).abs() < 1e-12);
+        for x in [
+            DVec3::ZERO,
+            DVec3::new(0.3, 0.8, 0.0),
+            DVec3::new(2.0, -1.0, 0.5),
+        ] {
+            assert!(q.residual(x) < 1e-12, "{x}: {}", q.residual(x));
+        }
+    }
+
+    #[test]
+    fn flat_colours_cost_their_variance() {
+        // Lower-right triangle black, upper-left white, each flat: at any point the best colour
+        // is the mean grey, and Σ area · |c − mean|² = 2 · ½ · 3 · ½² = 0.75.
+        let p = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let q = ColorQuadric::from_triangle([p[0], p[1], p[2]], [Vec3::ZERO; 3])
+            + ColorQuadric::from_triangle([p[0], p[2], p[3]], [Vec3::ONE; 3]);
+        for x in [
+            DVec3::ZERO,
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(0.0, 0.0, 3.0),
+        ] {
+            assert!((q.residual(x) - 0.75).abs() < 1e-12, "{}", q.residual(x));
+        }
+    }
+
+    #[test]
+    fn shifting_and_rounding_keep_the_residual() {
+        let q = square(|p| Vec3::new(p.x * p.y, p.x, 0.2));
+        let at = Vec3::new(1.0, 1.0, 0.0);
+        let local = LocalColorQuadric::new(&q.shifted(at.as_dvec3()));
+        let origin = DVec3::new(0.25, 0.5, 0.0);
+        let back = local.about(at, origin);
+        for x in [
+            DVec3::ZERO,
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+        ] {
+            let (want, got) = (q.residual(x), back.residual(x - origin));
+            assert!((want - got).abs() < 1e-6, "{x}: {want} vs {got}");
+        }
+        // x·y is y on the lower triangle and x on the upper: they disagree off the diagonal.
+        assert!(
+            q.residual(DVec3::new(1.0, 0.0, 0.0)) > 0.1,
+            "x·y is not linear"
+        );
+    }
+}
