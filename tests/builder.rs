@@ -302,6 +302,18 @@ proptest! {
         assert_tree_invariants(&mesh, &tree);
     }
 
+    /// Random scenes and soups with random colours: all invariants, and every colour bound.
+    #[test]
+    fn random_coloured_meshes_keep_every_invariant(seed in any::<u64>(), soup in any::<bool>(), greedy in any::<bool>()) {
+        let mut mesh = if soup { random_soup(seed, 30, 80) } else { random_scene(seed) };
+        prop_assume!(!mesh.triangles.is_empty());
+        random_colours(&mut mesh, seed);
+        let schedule = if greedy { Schedule::Greedy } else { Schedule::Passes };
+        let tree = build_with(&mesh, Metric::Qem, schedule);
+        assert_tree_invariants(&mesh, &tree);
+        assert_colour_bound(&mesh, &tree, BuildOptions::default().color_weight);
+    }
+
     /// Random soups: non-manifold edges, fans, isolated triangles, coincident merges everywhere.
     #[test]
     fn random_soups_keep_every_invariant(seed in any::<u64>(), vertices in 3u32..40, triangles in 1u32..120, metric in 0u32..4, greedy in any::<bool>()) {
@@ -334,6 +346,80 @@ fn real_models_build_to_one_root() {
     }
 }
 
+/// Every node's colour lies in [0, 1] and its error covers how far that colour strays from each
+/// leaf's below it (`weight · diagonal · largest channel difference`). Returns each node's leaves.
+fn assert_colour_bound(mesh: &Mesh, tree: &VertexTree, color_weight: f32) -> Vec<Vec<usize>> {
+    let scale = color_weight * mesh.diagonal();
+    let n = tree.leaf_count as usize;
+    // Each node's leaves, bottom-up (children come before parents).
+    let mut leaves: Vec<Vec<usize>> = (0..tree.nodes.len())
+        .map(|u| if u < n { vec![u] } else { Vec::new() })
+        .collect();
+    for u in n..tree.nodes.len() {
+        let [a, b] = tree.nodes[u].children;
+        let joined = [leaves[a as usize].clone(), leaves[b as usize].clone()].concat();
+        let c = Vec3::from_array(tree.nodes[u].color);
+        assert!(
+            c.min_element() >= 0.0 && c.max_element() <= 1.0,
+            "node {u}: colour {c}"
+        );
+        let worst = joined
+            .iter()
+            .map(|&l| {
+                (Vec3::from_array(tree.nodes[l].color).clamp(Vec3::ZERO, Vec3::ONE) - c)
+                    .abs()
+                    .max_element()
+            })
+            .fold(0.0f32, f32::max);
+        assert!(
+            tree.nodes[u].error >= scale * worst * (1.0 - 1e-5),
+            "node {u}: error {} below its colour deviation {}",
+            tree.nodes[u].error,
+            scale * worst
+        );
+        leaves[u] = joined;
+    }
+    leaves
+}
+
+/// Random colours over a mesh's vertices, some beyond [0, 1] (a float PLY may hold any finite
+/// value; the builder reads them as their nearest in range).
+fn random_colours(mesh: &mut Mesh, seed: u64) {
+    let mut state = seed | 1;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32 * 1.4 - 0.2
+    };
+    mesh.colors = Some(
+        (0..mesh.positions.len())
+            .map(|_| Vec3::new(next(), next(), next()))
+            .collect(),
+    );
+}
+
+/// Colours through the threaded finisher (passes of over a thousand merges, so more than
+/// `TAIL_LIVE` vertices): random colours on a 160 × 160 bumpy grid build the same tree on one
+/// thread and on four, with every colour bound.
+#[test]
+fn coloured_builds_are_identical_on_any_number_of_threads() {
+    let mut mesh = grid(160, 160, |x, y| (x * 0.11).sin() * (y * 0.07).cos() * 3.0);
+    random_colours(&mut mesh, 7);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| build(&mesh, Metric::Qem))
+    };
+    let (one, four) = (on(1), on(4));
+    assert_tree_invariants(&mesh, &one);
+    assert_colour_bound(&mesh, &one, BuildOptions::default().color_weight);
+    assert_eq!(one.nodes, four.nodes);
+    assert_eq!(one.triangles, four.triangles);
+}
+
 /// Colour in the error (lit meshes): a flat 8 × 8 grid, black where x < 4 and white from x = 4 on,
 ///
 /// ```text
@@ -356,47 +442,23 @@ fn colour_counts_in_the_error() {
             .map(|p| if p.x < 4.0 { Vec3::ZERO } else { Vec3::ONE })
             .collect(),
     );
-    // Merges that join black and white leaves; checks each node's error against its leaves' colours
-    // when `color_weight` is set.
+    // Merges that join black and white leaves; checks each node's error against its leaves' colours.
     let crossings = |color_weight: f32| {
         let options = BuildOptions {
             color_weight,
             ..Default::default()
         };
         let tree = vtree::build(&mesh, &options, &mut |_, _| {}).unwrap().0;
-        let scale = color_weight * mesh.diagonal();
-        let n = tree.leaf_count as usize;
-        // Each node's leaves, bottom-up (children come before parents).
-        let mut leaves: Vec<Vec<usize>> = (0..tree.nodes.len())
-            .map(|u| if u < n { vec![u] } else { Vec::new() })
-            .collect();
-        let mut mixed = 0;
-        for u in n..tree.nodes.len() {
-            let [a, b] = tree.nodes[u].children;
-            let joined = [leaves[a as usize].clone(), leaves[b as usize].clone()].concat();
-            let c = Vec3::from_array(tree.nodes[u].color);
-            let worst = joined
-                .iter()
-                .map(|&l| {
-                    (Vec3::from_array(tree.nodes[l].color) - c)
-                        .abs()
-                        .max_element()
-                })
-                .fold(0.0f32, f32::max);
-            assert!(
-                tree.nodes[u].error >= scale * worst * (1.0 - 1e-5),
-                "node {u}: error {} below its colour deviation {}",
-                tree.nodes[u].error,
-                scale * worst
-            );
-            let black = joined
-                .iter()
-                .filter(|&&l| tree.nodes[l].color[0] == 0.0)
-                .count();
-            mixed += usize::from(black > 0 && black < joined.len());
-            leaves[u] = joined;
-        }
-        mixed
+        let leaves = assert_colour_bound(&mesh, &tree, color_weight);
+        (tree.leaf_count as usize..tree.nodes.len())
+            .filter(|&u| {
+                let black = leaves[u]
+                    .iter()
+                    .filter(|&&l| tree.nodes[l].color[0] == 0.0)
+                    .count();
+                black > 0 && black < leaves[u].len()
+            })
+            .count()
     };
     let (with, without) = (
         crossings(BuildOptions::default().color_weight),
