@@ -484,6 +484,53 @@ fn budget_mode_stays_under_n_and_uses_it() {
     }
 }
 
+/// Budget mode is as fine everywhere as the budget allows, from its first frame on: not fine where
+/// a sweep began and coarse where it ran out of room. From τ = 1 px with a budget far below what
+/// 1 px needs, every frame ends with no visible node's error above the τ it used (each split the
+/// budget refused was answered by a coarser τ within the frame), under the budget; within a few
+/// dozen frames the per-frame steps bring τ down to use most of the budget.
+#[test]
+fn budget_mode_is_balanced_from_its_first_frame() {
+    let mesh = grid(30, 30, |x, y| (x * 0.5).sin() * (y * 0.4).cos() * 2.0);
+    let tree = tree_of(&mesh);
+    let h = Hierarchy::new(&tree);
+    let camera = camera_at(&h, Vec3::new(0.3, 0.2, 1.0), 1.2, bounds(&h).0);
+    let view = View::new(&camera);
+    // (The camera sees about 360 triangles of the full mesh: budgets below that bind.)
+    for n in [30, 60, 200] {
+        let mut r = Refiner::new(
+            &h,
+            Settings {
+                mode: Mode::Budget(n),
+                ..Default::default()
+            },
+        );
+        let mut stats = Default::default();
+        for frame in 0..40 {
+            stats = r.update(&h, &camera);
+            assert!(stats.triangles <= n);
+            let tests = r.settings.tests;
+            for u in r.front.active() {
+                if h.is_leaf(u) || !tests.visible(&h, &view, u) {
+                    continue;
+                }
+                let px = tests.error_px(&h, &view, u);
+                assert!(
+                    px <= stats.tolerance_px,
+                    "budget {n}, frame {frame}: node {u} left at {px} px, τ {}",
+                    stats.tolerance_px
+                );
+            }
+        }
+        assert!(
+            stats.triangles as f32 >= 0.8 * n as f32,
+            "budget {n}: {} triangles at τ {}",
+            stats.triangles,
+            stats.tolerance_px
+        );
+    }
+}
+
 /// Geomorphs: a split's children start at the parent's position and arrive after M frames.
 #[test]
 fn geomorphs_start_at_the_parent_and_arrive() {

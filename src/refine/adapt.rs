@@ -58,6 +58,11 @@ const HYSTERESIS: f32 = 0.1;
 /// Budget mode moves τ by this factor a frame: fast enough to follow a fly-in (τ halves in ~7
 /// frames), slow enough not to overshoot.
 const BUDGET_STEP: f32 = 1.1;
+/// Budget mode: at most this many extra steps of τ within one frame whose sweeps refused splits
+/// for the budget (growing steps: ten reach 1.1⁵⁵ ≈ 190×), so that a first frame at τ = 1 px
+/// reaches the budget's τ at once instead of staying fine on one side and coarse on the other for
+/// the half second that steps of 1.1 a frame took.
+const BUDGET_RETUNES: i32 = 12;
 /// Budget mode aims between these shares of N; splits that would exceed N are refused outright.
 const BUDGET_BAND: (f32, f32) = (0.9, 0.98);
 
@@ -114,6 +119,8 @@ pub struct Refiner {
     last_view: Option<(Camera, f32, Settings)>,
     /// Time spent in splits and unifies this frame (benchmarks only, see `refine::trace`).
     clock: OpClock,
+    /// Splits refused this frame because they would exceed the budget.
+    refused: usize,
 }
 
 impl Refiner {
@@ -137,6 +144,7 @@ impl Refiner {
             budget_tau: settings.tolerance_px,
             last_view: None,
             clock: OpClock::default(),
+            refused: 0,
         }
     }
 
@@ -224,7 +232,8 @@ impl Refiner {
             self.quiet_visits = 0;
             self.last_view = this_view;
         }
-        let frame = Frame {
+        self.refused = 0;
+        let mut frame = Frame {
             view,
             tau,
             cap: match self.settings.mode {
@@ -236,8 +245,23 @@ impl Refiner {
         };
         let mut visited = 0usize;
         let mut converged = false;
+        let mut retunes = 0;
         loop {
             if self.quiet_visits >= self.stream.len() {
+                if self.refused > 0 && retunes < BUDGET_RETUNES {
+                    // Splits refused for the budget: the front stopped wherever the sweep ran out of
+                    // room, fine on one side of the model and coarse on the other. Coarser everywhere
+                    // makes room where the error is least, and the frame sweeps again; the steps
+                    // grow (1.1, 1.1², 1.1³, …) so that a τ far off is reached in a few sweeps, and
+                    // the per-frame steps bring back what they overshoot.
+                    retunes += 1;
+                    self.refused = 0;
+                    self.budget_tau = (self.budget_tau * BUDGET_STEP.powi(retunes)).min(1e6);
+                    frame.tau = self.budget_tau;
+                    self.last_view = Some((*camera, frame.tau, self.settings));
+                    self.quiet_visits = 0;
+                    continue;
+                }
                 converged = true;
                 break;
             }
@@ -264,7 +288,7 @@ impl Refiner {
             morphing: self.morphs.len() as u32,
             refine_secs: start.elapsed().as_secs_f64(),
             operation_secs: self.clock.frame_seconds(start.elapsed().as_secs_f64()),
-            tolerance_px: tau,
+            tolerance_px: frame.tau,
             converged,
         }
     }
@@ -377,6 +401,7 @@ impl Refiner {
         // Appearing triangles are an upper bound on the growth, except where the split parts
         // coincident triangles; that rare case is undone below.
         if self.front.triangle_count() + h.appearing(u).len() > cap {
+            self.refused += 1;
             return false;
         }
         let from = self.displayed(h, u);
@@ -388,6 +413,7 @@ impl Refiner {
         }
         self.clock.stop(t0);
         if undo {
+            self.refused += 1;
             return false;
         }
         if self.morphs.remove(&u).is_some() {
