@@ -220,18 +220,21 @@ fn separate_parts_are_joined_by_widening() {
 /// first passes hand their nodes to the finishing thread, which the merging thread helps when it falls
 /// behind) gives the same nodes, vanishing sets and errors, bit for bit, with one pricing thread and
 /// with four.
+/// `f` run on a pool of `threads` threads.
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 #[test]
 fn builds_are_identical_on_any_number_of_threads() {
     let mesh = grid(160, 160, |x, y| {
         (x * 0.11).sin() * (y * 0.07).cos() * 3.0 + 0.01 * x * y
     });
-    let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| build(&mesh, Metric::Qem))
-    };
+    let on = |threads: usize| on_threads(threads, || build(&mesh, Metric::Qem));
     let (one, four) = (on(1), on(4));
     assert_tree_invariants(&mesh, &one);
     assert_eq!(one.nodes, four.nodes);
@@ -411,13 +414,7 @@ fn random_colours(mesh: &mut Mesh, seed: u64) {
 fn coloured_builds_are_identical_on_any_number_of_threads() {
     let mut mesh = grid(160, 160, |x, y| (x * 0.11).sin() * (y * 0.07).cos() * 3.0);
     random_colours(&mut mesh, 7);
-    let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| build(&mesh, Metric::Qem))
-    };
+    let on = |threads: usize| on_threads(threads, || build(&mesh, Metric::Qem));
     let (one, four) = (on(1), on(4));
     assert_tree_invariants(&mesh, &one);
     assert_colour_bound(&mesh, &one, BuildOptions::default().color_weight);
