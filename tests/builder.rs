@@ -274,6 +274,28 @@ fn colours_are_carried_to_merged_vertices() {
     }
 }
 
+/// A colour far out of range (a float PLY may hold 1e30) is read as its nearest in [0, 1], in the
+/// leaves as in the merges: a flat 4 × 4 grid, white but for one vertex at (1e30, -1e30, 0.5),
+/// builds a tree whose every colour is in range and whose root error stays within the grid's size
+/// and one full colour difference (read raw, the colour term alone would be 1e30 times that).
+#[test]
+fn colours_out_of_range_are_read_as_their_nearest() {
+    let mut mesh = grid(4, 4, |_, _| 0.0);
+    let mut colors = vec![Vec3::ONE; mesh.positions.len()];
+    colors[6] = Vec3::new(1e30, -1e30, 0.5);
+    mesh.colors = Some(colors);
+    let weight = BuildOptions::default().color_weight;
+    let tree = build(&mesh, Metric::Qem);
+    assert_colour_bound(&mesh, &tree, weight);
+    assert_eq!(tree.nodes[6].color, [1.0, 0.0, 0.5]);
+    let root = tree.nodes.last().unwrap();
+    assert!(
+        root.error.is_finite() && root.error <= mesh.diagonal() * (1.0 + weight),
+        "root error {}",
+        root.error
+    );
+}
+
 #[test]
 fn extract_hits_its_targets() {
     let mesh = grid(10, 10, |x, y| (x * 0.5).sin() + (y * 0.3).cos());
@@ -354,11 +376,18 @@ fn real_models_build_to_one_root() {
     }
 }
 
-/// Every node's colour lies in [0, 1] and its error covers how far that colour strays from each
+/// Every node's colour, the leaves' too, lies in [0, 1], and each inner node's error covers how far that colour strays from each
 /// leaf's below it (`weight · diagonal · largest channel difference`). Returns each node's leaves.
 fn assert_colour_bound(mesh: &Mesh, tree: &VertexTree, color_weight: f32) -> Vec<Vec<usize>> {
     let scale = color_weight * mesh.diagonal();
     let n = tree.leaf_count as usize;
+    for (u, node) in tree.nodes.iter().enumerate() {
+        let c = Vec3::from_array(node.color);
+        assert!(
+            c.min_element() >= 0.0 && c.max_element() <= 1.0,
+            "node {u}: colour {c}"
+        );
+    }
     // Each node's leaves, bottom-up (children come before parents).
     let mut leaves: Vec<Vec<usize>> = (0..tree.nodes.len())
         .map(|u| if u < n { vec![u] } else { Vec::new() })
@@ -367,14 +396,10 @@ fn assert_colour_bound(mesh: &Mesh, tree: &VertexTree, color_weight: f32) -> Vec
         let [a, b] = tree.nodes[u].children;
         let joined = [leaves[a as usize].clone(), leaves[b as usize].clone()].concat();
         let c = Vec3::from_array(tree.nodes[u].color);
-        assert!(
-            c.min_element() >= 0.0 && c.max_element() <= 1.0,
-            "node {u}: colour {c}"
-        );
         let worst = joined
             .iter()
             .map(|&l| {
-                (Vec3::from_array(tree.nodes[l].color).clamp(Vec3::ZERO, Vec3::ONE) - c)
+                (Vec3::from_array(tree.nodes[l].color) - c)
                     .abs()
                     .max_element()
             })
@@ -391,7 +416,7 @@ fn assert_colour_bound(mesh: &Mesh, tree: &VertexTree, color_weight: f32) -> Vec
 }
 
 /// Random colours over a mesh's vertices, some beyond [0, 1] (a float PLY may hold any finite
-/// value; the builder reads them as their nearest in range).
+/// value; the builder keeps them as their nearest in range).
 fn random_colours(mesh: &mut Mesh, seed: u64) {
     let mut state = seed | 1;
     let mut next = move || {
