@@ -51,12 +51,10 @@ pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>
                 .map_or(nsum.normalize_or_zero(), |ns| {
                     ns[v as usize].normalize_or_zero()
                 });
-            // Colours are meant to lie in [0, 1]; an input beyond is kept as its nearest, as the
-            // colour quadrics read it.
             let color = mesh
                 .colors
                 .as_ref()
-                .map_or(Vec3::ONE, |cs| cs[v as usize].clamp(Vec3::ZERO, Vec3::ONE));
+                .map_or(Vec3::ONE, |cs| super::input_color(cs[v as usize]));
             let node = Node {
                 position: p.to_array(),
                 error: 0.0,

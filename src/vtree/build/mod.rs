@@ -553,6 +553,13 @@ impl Builder<'_> {
     }
 }
 
+/// An input colour as the builder reads it: colours are meant to lie in [0, 1], and one beyond (a
+/// float PLY may hold any finite value) is read as its nearest in range, in the leaves and the colour
+/// quadrics alike.
+pub(super) fn input_color(c: Vec3) -> Vec3 {
+    c.clamp(Vec3::ZERO, Vec3::ONE)
+}
+
 /// Each vertex's colour quadric (see [`crate::simplify::color_quadric`]): its triangles' summed,
 /// about the vertex.
 fn color_quadrics(mesh: &Mesh, colors: &[Vec3]) -> Vec<LocalColorQuadric> {
@@ -560,8 +567,7 @@ fn color_quadrics(mesh: &Mesh, colors: &[Vec3]) -> Vec<LocalColorQuadric> {
     for t in &mesh.triangles {
         let q = ColorQuadric::from_triangle(
             t.map(|v| mesh.positions[v as usize]),
-            // Colours are meant to lie in [0, 1]; an input beyond is read as its nearest.
-            t.map(|v| colors[v as usize].clamp(Vec3::ZERO, Vec3::ONE)),
+            t.map(|v| input_color(colors[v as usize])),
         );
         for v in t {
             sums[*v as usize] += q;
