@@ -1,12 +1,35 @@
 //! Candidate non-edge pairs: vertices closer than a threshold (Garland & Heckbert 1997 §3; Tao et al. §2.3
-//! "any two vertices"). Found with a uniform grid of cell size = the threshold, so each query looks at
-//! the 27 cells around a point (as 9 columns): O(n) for surfaces, never O(n²).
+//! "any two vertices"). Found with a uniform grid of cell size ≥ the threshold, so each query looks at
+//! the 27 cells around a point: O(n) for surfaces, never O(n²).
+//!
+//! The grid is the points sorted by cell, each cell packed into one integer key (x, y, z fields, z
+//! lowest): a column of cells (fixed x and y) is one contiguous run ordered by z, so the 27 cells
+//! around a point are 9 key ranges. Points are queried in key order, and each range's bounds are the
+//! query's key plus a constant, so each of the 9 ranges is found by a cursor that only moves forward:
+//! no hash table and no search from scratch, and the grid is read as 9 nearly sequential streams.
+//! (A hash table of columns cost a cache miss per lookup, 9 a point; on the dragon this is 3× faster.)
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// For each point, up to `max_per_point` nearest others within `radius` for which `keep(i, j)` holds.
-/// Returns each pair once as `(min, max)` of the given ids, sorted.
+/// Bits of each cell coordinate in a key.
+const FIELD_BITS: u32 = 21;
+/// Cells per axis at most (two are kept free, for the neighbours of the first and last).
+const MAX_CELLS: f32 = ((1u32 << FIELD_BITS) - 4) as f32;
+/// Points a task sweeps with one set of cursors.
+const SWEEP_CHUNK: usize = 8192;
+
+/// A point in the grid: its cell's key, its id and position.
+#[derive(Clone, Copy)]
+struct Gridded {
+    key: u64,
+    id: u32,
+    p: Vec3,
+}
+
+/// For each point, up to `max_per_point` nearest others within `radius` for which `keep(i, j)` holds
+/// (of equally near ones, the smaller id). Returns each pair once as `(min, max)` of the given ids,
+/// sorted.
 pub fn close_pairs(
     points: &[(u32, Vec3)],
     radius: f32,
@@ -16,54 +39,47 @@ pub fn close_pairs(
     if points.len() < 2 || radius <= 0.0 || max_per_point == 0 || !radius.is_finite() {
         return Vec::new();
     }
-    let cell_of = |p: Vec3| -> [i64; 3] { (p / radius).floor().to_array().map(|x| x as i64) };
-    // Points sorted by cell: a column of cells (fixed x and y) is one contiguous run, ordered by z,
-    // so the 27 cells around a point are 9 column runs, each cut to 3 cells by binary search.
-    let mut sorted: Vec<([i64; 3], u32, Vec3)> =
-        points.iter().map(|&(id, p)| (cell_of(p), id, p)).collect();
-    sorted.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
-    // Column → its run in `sorted`: 9 hash lookups a point instead of 27.
-    let mut columns: std::collections::HashMap<[i64; 2], (usize, usize), CellHash> =
-        std::collections::HashMap::with_capacity_and_hasher(sorted.len() / 2 + 1, CellHash);
-    let mut i = 0;
-    while i < sorted.len() {
-        let column = [sorted[i].0[0], sorted[i].0[1]];
-        let mut j = i + 1;
-        while j < sorted.len() && sorted[j].0[..2] == column {
-            j += 1;
-        }
-        columns.insert(column, (i, j));
-        i = j;
-    }
+    let sorted = grid(points, radius);
     let r2 = radius * radius;
+    // The 9 columns around a cell, as offsets from its key to the key of the column's lowest cell
+    // (z − 1); the column's 3 cells are that key and the next two.
+    let field = |d: i64| d << FIELD_BITS;
+    let columns: [u64; 9] = std::array::from_fn(|k| {
+        let (dx, dy) = (k as i64 / 3 - 1, k as i64 % 3 - 1);
+        (field(field(dx)) + field(dy) - 1) as u64
+    });
     let mut pairs: Vec<(u32, u32)> = sorted
-        .par_iter()
-        .flat_map_iter(|&(cell, id, p)| {
+        .par_chunks(SWEEP_CHUNK)
+        .flat_map_iter(|part| {
+            let first = part[0].key;
+            let mut cursors = columns.map(|offset| {
+                let low = first.wrapping_add(offset);
+                sorted.partition_point(|g| g.key < low)
+            });
             let mut near: Vec<(f32, u32)> = Vec::new();
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    let Some(&(start, end)) =
-                        columns.get(&[cell[0].saturating_add(dx), cell[1].saturating_add(dy)])
-                    else {
-                        continue;
-                    };
-                    let run = &sorted[start..end];
-                    let from = run.partition_point(|q| q.0[2] < cell[2].saturating_sub(1));
-                    for &(c, other, q) in &run[from..] {
-                        if c[2] > cell[2].saturating_add(1) {
-                            break;
-                        }
-                        let d2 = p.distance_squared(q);
-                        if other != id && d2 <= r2 && keep(id, other) {
-                            near.push((d2, other));
+            let mut out = Vec::new();
+            for g in part {
+                near.clear();
+                for (cursor, &offset) in cursors.iter_mut().zip(&columns) {
+                    let low = g.key.wrapping_add(offset);
+                    *cursor = seek(&sorted, *cursor, low);
+                    for h in sorted[*cursor..].iter().take_while(|h| h.key <= low + 2) {
+                        let d2 = g.p.distance_squared(h.p);
+                        if h.id != g.id && d2 <= r2 {
+                            near.push((d2, h.id));
                         }
                     }
                 }
+                // Nearest first, and `keep` asked only until enough are kept: most close points of
+                // a fine mesh are its own neighbours, which `keep` rejects.
+                near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                let kept = near.iter().filter(|&&(_, other)| keep(g.id, other));
+                out.extend(
+                    kept.take(max_per_point)
+                        .map(|&(_, other)| (g.id.min(other), g.id.max(other))),
+                );
             }
-            near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            near.truncate(max_per_point);
-            near.into_iter()
-                .map(move |(_, other)| (id.min(other), id.max(other)))
+            out
         })
         .collect();
     pairs.par_sort_unstable();
@@ -71,36 +87,43 @@ pub fn close_pairs(
     pairs
 }
 
-/// A multiplicative hash for grid cells: the default SipHash costs more than the whole distance test.
-#[derive(Clone, Copy, Default)]
-struct CellHash;
-
-impl std::hash::BuildHasher for CellHash {
-    type Hasher = CellHasher;
-    fn build_hasher(&self) -> CellHasher {
-        CellHasher(0)
-    }
+/// The points sorted by cell key. A cell is at least `radius` wide (a little more, so that two
+/// points exactly `radius` apart are never two cells apart by rounding), and wider where the points
+/// span more cells than a key's fields hold.
+fn grid(points: &[(u32, Vec3)], radius: f32) -> Vec<Gridded> {
+    let (low, high) = points.par_iter().map(|&(_, p)| (p, p)).reduce(
+        || (Vec3::INFINITY, Vec3::NEG_INFINITY),
+        |a, b| (a.0.min(b.0), a.1.max(b.1)),
+    );
+    let cell = (radius * 1.001).max((high - low).max_element() / MAX_CELLS);
+    let mut sorted: Vec<Gridded> = points
+        .par_iter()
+        .map(|&(id, p)| {
+            // +1: every cell has a neighbour cell with non-negative coordinates.
+            let [x, y, z] = ((p - low) / cell).floor().to_array().map(|c| c as u64 + 1);
+            Gridded {
+                key: (((x << FIELD_BITS) | y) << FIELD_BITS) | z,
+                id,
+                p,
+            }
+        })
+        .collect();
+    sorted.par_sort_unstable_by_key(|g| (g.key, g.id));
+    sorted
 }
 
-struct CellHasher(u64);
-
-impl std::hash::Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
+/// The first index at or after `from` whose key is at least `key`: a galloping search, since the
+/// cursor usually moves by a few places.
+fn seek(sorted: &[Gridded], from: usize, key: u64) -> usize {
+    let mut step = 1;
+    let mut low = from;
+    while low < sorted.len() && sorted[low].key < key {
+        low += step;
+        step *= 2;
     }
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut word = [0u8; 8];
-            word[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(word));
-        }
-    }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_i64(&mut self, x: i64) {
-        self.write_u64(x as u64);
-    }
+    let start = low.saturating_sub(step / 2).max(from);
+    let end = low.min(sorted.len());
+    start + sorted[start..end].partition_point(|g| g.key < key)
 }
 
 #[cfg(test)]
@@ -137,5 +160,76 @@ mod tests {
             }
         }
         assert_eq!(got, want);
+    }
+
+    /// The brute-force answer: for each point, its `max` nearest others within `radius` that `keep`
+    /// accepts (ties to the smaller id), each pair once.
+    fn brute_force(
+        pts: &[(u32, Vec3)],
+        radius: f32,
+        max: usize,
+        keep: impl Fn(u32, u32) -> bool,
+    ) -> Vec<(u32, u32)> {
+        let mut want = Vec::new();
+        for a in pts {
+            let mut near: Vec<(f32, u32)> = pts
+                .iter()
+                .filter(|b| b.0 != a.0 && a.1.distance_squared(b.1) <= radius * radius)
+                .filter(|b| keep(a.0, b.0))
+                .map(|b| (a.1.distance_squared(b.1), b.0))
+                .collect();
+            near.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            want.extend(
+                near.iter()
+                    .take(max)
+                    .map(|&(_, b)| (a.0.min(b), a.0.max(b))),
+            );
+        }
+        want.sort_unstable();
+        want.dedup();
+        want
+    }
+
+    #[test]
+    fn nearest_kept_partners_match_brute_force_over_many_random_clouds() {
+        for seed in 0..40u64 {
+            let mut rnd = crate::simplify::test_random(seed);
+            let n = 50 + (rnd() * 600.0) as u32;
+            // Clustered on a few planes and lines, as a mesh's vertices are, with duplicates.
+            let pts: Vec<(u32, Vec3)> = (0..n)
+                .map(|i| {
+                    let p = match i % 4 {
+                        0 => Vec3::new(rnd(), rnd(), 0.0),
+                        1 => Vec3::new(rnd(), 0.5, rnd()),
+                        2 => Vec3::splat(rnd()),
+                        _ => Vec3::new((rnd() * 8.0).floor() / 8.0, rnd(), 0.25),
+                    };
+                    (i * 3 + 7, p * 2.0 - 1.0)
+                })
+                .collect();
+            let radius = 0.02 + rnd() * 0.2;
+            let max = 1 + (rnd() * 4.0) as usize;
+            let keep = |i: u32, j: u32| !(i ^ j).is_multiple_of(5);
+            assert_eq!(
+                close_pairs(&pts, radius, max, keep),
+                brute_force(&pts, radius, max, keep),
+                "seed {seed}"
+            );
+        }
+    }
+
+    /// Points 1e7 apart with a radius of 1e-3 would need 1e10 cells per axis; the grid uses fewer,
+    /// wider cells and still finds exactly the close pairs.
+    #[test]
+    fn a_radius_tiny_next_to_the_extent_still_finds_the_pairs() {
+        let pts = [
+            (0, Vec3::ZERO),
+            (1, Vec3::new(0.0, 0.0, 5e-4)),
+            (2, Vec3::splat(1e7)),
+            (3, Vec3::splat(1e7) + Vec3::X * 1.0),
+            (4, Vec3::new(5e6, 0.0, 0.0)),
+        ];
+        assert_eq!(close_pairs(&pts, 1e-3, 4, |_, _| true), vec![(0, 1)]);
+        assert_eq!(close_pairs(&pts, 2.0, 4, |_, _| true), vec![(0, 1), (2, 3)]);
     }
 }
