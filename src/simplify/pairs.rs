@@ -7,14 +7,16 @@
 //! around a point are 9 key ranges. Points are queried in key order, and each range's bounds are the
 //! query's key plus a constant, so each of the 9 ranges is found by a cursor that only moves forward:
 //! no hash table and no search from scratch, and the grid is read as 9 nearly sequential streams.
-//! (A hash table of columns cost a cache miss per lookup, 9 a point; on the dragon this is 3× faster.)
+//! (It replaced a hash table of columns, a cache miss per lookup and 9 a point: on the dragon the
+//! search went from 0.13 to 0.09 s, on a 14-million-triangle model from 8.5 to 6.6 s.)
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 /// Bits of each cell coordinate in a key.
 const FIELD_BITS: u32 = 21;
-/// Cells per axis at most (two are kept free, for the neighbours of the first and last).
+/// Cells per axis at most: a few of a field's values are kept free, for the neighbours of the first
+/// and last cells (coordinates start at 1, so that the first one's neighbour is 0).
 const MAX_CELLS: f32 = ((1u32 << FIELD_BITS) - 4) as f32;
 /// Points a task sweeps with one set of cursors.
 const SWEEP_CHUNK: usize = 8192;
