@@ -3,6 +3,7 @@
 
 use super::{NONE, VertexTree};
 use glam::Vec3;
+use rayon::prelude::*;
 use std::collections::HashSet;
 
 /// What a tree [`check`] or [`check_cut`] found wrong: the first broken invariant, with the nodes
@@ -90,70 +91,32 @@ pub fn check(tree: &VertexTree) -> Result<(), TreeProblem> {
             leaves: n,
         });
     }
-    for (u, node) in tree.nodes.iter().enumerate() {
-        let finite = node
-            .position
-            .iter()
-            .chain(&node.color)
-            .chain(&node.normal)
-            .chain(&node.sphere)
-            .chain(&node.cone)
-            .all(|x| x.is_finite());
-        if !finite || !node.error.is_finite() || node.error < 0.0 || node.sphere[3] < 0.0 {
-            return Err(TreeProblem::BadValue(u));
-        }
-        if u < n {
-            if node.children != [NONE, NONE] {
-                return Err(TreeProblem::LeafWithChildren(u));
-            }
-        } else {
-            let [s, t] = node.children;
-            if s == t || s as usize >= u || t as usize >= u {
-                return Err(TreeProblem::BadChildren { node: u, s, t });
-            }
-            for c in [s, t] {
-                let child = &tree.nodes[c as usize];
-                if child.parent as usize != u {
-                    return Err(TreeProblem::ChildNamesOtherParent {
-                        child: c,
-                        node: u,
-                        parent: child.parent,
-                    });
+    // Nodes are checked in parallel runs; the first problem in node order is reported. Each node
+    // reads its two children, scattered over the array: their records are requested a few nodes
+    // ahead, so that the loads overlap (the check runs alongside every write of a tree).
+    const RUN: usize = 16_384;
+    const AHEAD: usize = 8;
+    let problem = tree
+        .nodes
+        .par_chunks(RUN)
+        .enumerate()
+        .map(|(k, run)| {
+            for (i, node) in run.iter().enumerate() {
+                if let Some(next) = run.get(i + AHEAD) {
+                    for c in next.children.into_iter().filter(|&c| c != NONE) {
+                        if let Some(child) = tree.nodes.get(c as usize) {
+                            crate::prefetch(&child.parent);
+                            crate::prefetch(&child.sphere);
+                        }
+                    }
                 }
-                if child.error > node.error {
-                    return Err(TreeProblem::ErrorDecreases {
-                        child: c,
-                        child_error: child.error,
-                        node: u,
-                        error: node.error,
-                    });
-                }
-                let (cu, cc) = (
-                    Vec3::from_slice(&node.sphere),
-                    Vec3::from_slice(&child.sphere),
-                );
-                let slack = 1e-5 * (node.sphere[3] + cu.abs().max_element() + 1e-6);
-                if crate::mesh::diagonal_of(cu - cc) + child.sphere[3] > node.sphere[3] + slack {
-                    return Err(TreeProblem::SphereMissesChild { node: u, child: c });
-                }
+                check_node(tree, k * RUN + i, node)?;
             }
-            if !tree.nodes[u].sphere_contains(node.position()) {
-                return Err(TreeProblem::SphereMissesPosition(u));
-            }
-        }
-        // That each parent lists its child follows from the rest, so it is not read (it would be
-        // a second random access per node, half of this check's time on large trees): the
-        // `count − 1` child links, each confirmed by its child's parent, name `count − 1` distinct
-        // children (a child named twice would have two parents), all before the last node. So
-        // every node but the root is the child of exactly the parent it names.
-        let p = node.parent;
-        if u + 1 == count {
-            if p != NONE {
-                return Err(TreeProblem::LastNotRoot { node: u, parent: p });
-            }
-        } else if p == NONE || p as usize <= u || p as usize >= count {
-            return Err(TreeProblem::BadParent { node: u, parent: p });
-        }
+            Ok(())
+        })
+        .find_first(Result::is_err);
+    if let Some(problem) = problem {
+        return problem;
     }
     let offsets = &tree.vanish_offsets;
     if offsets.len() != count - n + 1
@@ -172,6 +135,75 @@ pub fn check(tree: &VertexTree) -> Result<(), TreeProblem> {
                 corners: *t,
             });
         }
+    }
+    Ok(())
+}
+
+/// [`check`]'s invariants of node `u` itself and of its links to its children and parent.
+fn check_node(tree: &VertexTree, u: usize, node: &super::Node) -> Result<(), TreeProblem> {
+    let (n, count) = (tree.leaf_count as usize, tree.nodes.len());
+    let finite = node
+        .position
+        .iter()
+        .chain(&node.color)
+        .chain(&node.normal)
+        .chain(&node.sphere)
+        .chain(&node.cone)
+        .all(|x| x.is_finite());
+    if !finite || !node.error.is_finite() || node.error < 0.0 || node.sphere[3] < 0.0 {
+        return Err(TreeProblem::BadValue(u));
+    }
+    if u < n {
+        if node.children != [NONE, NONE] {
+            return Err(TreeProblem::LeafWithChildren(u));
+        }
+    } else {
+        let [s, t] = node.children;
+        if s == t || s as usize >= u || t as usize >= u {
+            return Err(TreeProblem::BadChildren { node: u, s, t });
+        }
+        for c in [s, t] {
+            let child = &tree.nodes[c as usize];
+            if child.parent as usize != u {
+                return Err(TreeProblem::ChildNamesOtherParent {
+                    child: c,
+                    node: u,
+                    parent: child.parent,
+                });
+            }
+            if child.error > node.error {
+                return Err(TreeProblem::ErrorDecreases {
+                    child: c,
+                    child_error: child.error,
+                    node: u,
+                    error: node.error,
+                });
+            }
+            let (cu, cc) = (
+                Vec3::from_slice(&node.sphere),
+                Vec3::from_slice(&child.sphere),
+            );
+            let slack = 1e-5 * (node.sphere[3] + cu.abs().max_element() + 1e-6);
+            if crate::mesh::diagonal_of(cu - cc) + child.sphere[3] > node.sphere[3] + slack {
+                return Err(TreeProblem::SphereMissesChild { node: u, child: c });
+            }
+        }
+        if !tree.nodes[u].sphere_contains(node.position()) {
+            return Err(TreeProblem::SphereMissesPosition(u));
+        }
+    }
+    // That each parent lists its child follows from the rest, so it is not read (it would be
+    // a second random access per node, half of this check's time on large trees): the
+    // `count − 1` child links, each confirmed by its child's parent, name `count − 1` distinct
+    // children (a child named twice would have two parents), all before the last node. So
+    // every node but the root is the child of exactly the parent it names.
+    let p = node.parent;
+    if u + 1 == count {
+        if p != NONE {
+            return Err(TreeProblem::LastNotRoot { node: u, parent: p });
+        }
+    } else if p == NONE || p as usize <= u || p as usize >= count {
+        return Err(TreeProblem::BadParent { node: u, parent: p });
     }
     Ok(())
 }
