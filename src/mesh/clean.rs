@@ -124,8 +124,9 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
 /// `remap[v]` = the first vertex with `v`'s position and colour, bit for bit (after `-0.0` → `0.0`).
 ///
 /// The vertices are sorted by a hash of that key (then by index), on every thread; equal keys
-/// then lie in one run of equal hashes, first vertex first. Twice as fast on two cores as one hash
-/// map filled in vertex order, whose every insertion is a cache miss in a table of the whole mesh.
+/// then lie in one run of equal hashes, first vertex first. One hash map filled in vertex order does
+/// the same on one core, a cache miss per vertex: with it, the dragon's whole clean-up took
+/// 0.094–0.11 s; with this and the parallel duplicate search, 0.052–0.067 s.
 fn weld(positions: &[Vec3], colors: Option<&[Vec3]>) -> Vec<u32> {
     let key = |v: u32| {
         let bits = |x: Vec3| (x + Vec3::ZERO).to_array().map(f32::to_bits); // + 0.0 turns -0.0 into 0.0

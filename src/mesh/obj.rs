@@ -259,11 +259,10 @@ impl Piece {
                 return Err(format!("face: malformed vertex reference {tok:?}"));
             }
             self.vertex_refs.push(refs[0]);
-            if refs[2] != Ref::None && self.normal_refs.is_empty() {
+            if refs[2] != Ref::None || !self.normal_refs.is_empty() {
+                // The corners before the first that names a normal name none.
                 self.normal_refs
                     .resize(self.vertex_refs.len() - 1, Ref::None);
-            }
-            if refs[2] != Ref::None || !self.normal_refs.is_empty() {
                 self.normal_refs.push(refs[2]);
             }
             corners += 1;

@@ -188,7 +188,7 @@ fn check_node(tree: &VertexTree, u: usize, node: &super::Node) -> Result<(), Tre
                 return Err(TreeProblem::SphereMissesChild { node: u, child: c });
             }
         }
-        if !tree.nodes[u].sphere_contains(node.position()) {
+        if !node.sphere_contains(node.position()) {
             return Err(TreeProblem::SphereMissesPosition(u));
         }
     }
