@@ -4,7 +4,7 @@
 //!
 //!     VUNIFY_MODELS=… cargo bench --bench envelopes -- --models cow,bunny --epsilon 0.01
 //!
-//! With `--paper`, the seed paper's Table 3 instead: every method (`offset-patch`,
+//! With `--paper`, Zou, Shen and Peng's Table 3 instead: every method (`offset-patch`,
 //! `single-envelope`, `cohen`, `bounded`) at each ε of `--epsilons` (default 1, 2, 3 %), with its
 //! triangles, seconds (the library call, the model already loaded) and both certified upper bounds.
 //!

@@ -1,4 +1,4 @@
-//! Simplifying a lit mesh at equal triangle counts (issue 22 §5): the seed paper's superfaces
+//! Simplifying a lit mesh at equal triangle counts (issue 22 §5): Liu and Wu's superfaces
 //! against meshoptimizer's `simplify_with_attributes` (colour weight 1, its documented default) and
 //! against the vertex tree's build-order cut, each drawn whole (`--full`, colours unlit) from one
 //! camera and compared with the full lit mesh: PSNR, and the share of pixels off by more than 2/255.

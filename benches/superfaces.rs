@@ -1,4 +1,4 @@
-//! The seed paper's Figs. 8–11: the simplification ratio of `vunify superfaces` against ε (δ = 2) and
+//! Liu and Wu's Figs. 8–11: the simplification ratio of `vunify superfaces` against ε (δ = 2) and
 //! against δ (ε = 0.8), for lit meshes made by `vunify radiosity`; a table on stdout and two PNG
 //! plots. Also the time of each run (the bar: a 100,000-triangle lit mesh in ≤ 1 s).
 //!

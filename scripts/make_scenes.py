@@ -214,7 +214,7 @@ def save_furnished(w, out, name):
 
 
 def room(out):
-    """A room like the seed paper's Fig. 2: a table, two chairs, a shelf, a ceiling light and a
+    """A room like Liu and Wu's Fig. 2: a table, two chairs, a shelf, a ceiling light and a
     window light, in metres."""
     w = Writer(
         [

@@ -245,7 +245,7 @@ impl CameraPath {
         CameraPath { keyframes }
     }
 
-    /// Seed 001 Fig. 6: from far away (12 radii) to close to the surface (0.4 radii), approaching
+    /// Tao et al., Fig. 6: from far away (12 radii) to close to the surface (0.4 radii), approaching
     /// geometrically so that the screen-space size grows steadily.
     pub fn fly_in(center: Vec3, radius: f32, seconds: f32) -> CameraPath {
         let dir = Vec3::new(0.3, 0.25, 1.0).normalize();

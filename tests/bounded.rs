@@ -16,6 +16,7 @@ fn referee() -> CertifyOptions {
         relative: 2e-4,
         absolute: 1e-9,
         max_splits: 2_000_000,
+        epsilon: None,
     }
 }
 

@@ -389,3 +389,207 @@ fn simplify_every_method_and_format() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("must end in .obj, .ply or .off"));
 }
+
+/// `vunify measure A B --certified --epsilon E` answers the question with its exit status: 0 when
+/// both directions are proven at most E, 1 when a point is proven farther, 3 when the distance is
+/// too close to E to tell, 2 for a usage error. Two triangles 0.5 apart: the distance is
+/// 0.5 / √2 of the diagonal (√2), about 0.35355.
+#[test]
+fn measure_epsilon_answers_with_its_exit_status() {
+    let a = tmp("verdict-a.obj");
+    let b = tmp("verdict-b.obj");
+    std::fs::write(&a, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(&b, "v 0 0 0.5\nv 1 0 0.5\nv 0 1 0.5\nf 1 2 3\n").unwrap();
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let status = |e: &str| {
+        vunify(&["measure", a, b, "--certified", "--epsilon", e])
+            .status
+            .code()
+    };
+    assert_eq!(status("0.36"), Some(0));
+    assert_eq!(status("0.35"), Some(1));
+    // A hair above the exact value: proven within only with bounds tighter than the 1 % default.
+    assert_eq!(status("0.353560"), Some(0));
+    // Exactly on it (to f64): no finite search can tell.
+    let exact = format!("{}", 0.5 / 2f64.sqrt());
+    let out = vunify(&["measure", a, b, "--certified", "--epsilon", &exact]);
+    assert_eq!(out.status.code(), Some(3), "{out:?}");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("undecided"));
+    assert_eq!(
+        vunify(&["measure", a, b, "--epsilon", "0.1"]).status.code(),
+        Some(2),
+        "--epsilon needs --certified"
+    );
+    let out = vunify(&["measure", a, b, "--certified", "--epsilon", "-1"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--epsilon must be between 0 and 1"));
+}
+
+/// `vunify simplify` reports the certified distance its result reached, both ways, for every
+/// method (JSON and text); `bounded`'s is confirmed within ε by the meter before it writes.
+#[test]
+fn simplify_reports_the_certified_distance() {
+    let input = tmp("certify-bumps.obj");
+    let mesh = vunify::fixtures::cuboid(glam::Vec3::new(2.0, 1.0, 1.0));
+    std::fs::write(&input, vunify::export::obj_string(&mesh)).unwrap();
+    for method in ["bounded", "offset-patch", "single-envelope", "cohen"] {
+        let output = tmp(&format!("certify-{method}.obj"));
+        let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
+        let args = [
+            "simplify",
+            i,
+            "-o",
+            o,
+            "--method",
+            method,
+            "--epsilon",
+            "0.05",
+        ];
+        let mut json_args = args.to_vec();
+        json_args.push("--json");
+        let j: serde_json::Value = serde_json::from_str(&ok(&vunify(&json_args))).unwrap();
+        let c = &j["certified"];
+        for side in ["input_to_output", "output_to_input"] {
+            let (lo, hi) = (
+                c[side]["lower"].as_f64().unwrap(),
+                c[side]["upper"].as_f64().unwrap(),
+            );
+            assert!(lo <= hi, "{method} {side}");
+        }
+        if method == "bounded" {
+            assert_eq!(c["within_epsilon_both_ways"], true, "{j}");
+        }
+        let text = ok(&vunify(&args));
+        assert!(text.contains("certified  input → output"), "{text}");
+        let claims = c["within_epsilon_both_ways"] == true;
+        assert_eq!(text.contains("NOT within ε"), !claims, "{text}");
+    }
+}
+
+/// `vunify radiosity` with a budget: `--max-shots` and `--max-seconds` stop the solve and still
+/// write the lit mesh with its unshot share; the JSON says why it stopped. Ctrl-C does the same,
+/// and progress reaches a standard error that is not a terminal.
+#[test]
+fn radiosity_budget_and_interrupt() {
+    let dir = tmp("furnace");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("f.mtl"), "newmtl glow\nKd 0.9 0.9 0.9\nKe 1 1 1\n").unwrap();
+    std::fs::write(
+        dir.join("f.obj"),
+        "mtllib f.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+         usemtl glow\nf 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 4 3 7 8\nf 1 4 8 5\nf 2 6 7 3\n",
+    )
+    .unwrap();
+    let scene = dir.join("f.obj");
+    let lit = dir.join("f.ply");
+    let run = |extra: &[&str]| {
+        let _ = std::fs::remove_file(&lit);
+        let mut args = vec![
+            "radiosity",
+            scene.to_str().unwrap(),
+            "-o",
+            lit.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        args.push("--json");
+        let j: serde_json::Value = serde_json::from_str(&ok(&vunify(&args))).unwrap();
+        assert!(lit.exists());
+        j
+    };
+    let j = run(&["--max-shots", "3", "--element-size", "0.1"]);
+    assert_eq!(j["stop"], "max-shots");
+    assert!(j["unshot"].as_f64().unwrap() > 0.01, "{j}");
+    let j = run(&["--max-seconds", "0", "--element-size", "0.1"]);
+    assert_eq!(j["stop"], "max-seconds");
+
+    // Ctrl-C after a few seconds of plain progressive refinement (which would take minutes).
+    let _ = std::fs::remove_file(&lit);
+    let child = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args([
+            "radiosity",
+            scene.to_str().unwrap(),
+            "-o",
+            lit.to_str().unwrap(),
+        ])
+        .args([
+            "--no-overshoot",
+            "--no-ambient",
+            "--unshot",
+            "1e-9",
+            "--json",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs(8));
+    // SAFETY: sending a signal to our own child process, whose pid is valid until it is reaped.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    let out = child.wait_with_output().unwrap();
+    let j: serde_json::Value = serde_json::from_str(&ok(&out)).unwrap();
+    assert_eq!(j["stop"], "interrupted");
+    assert!(lit.exists());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("radiosity: ") && err.contains("shots"),
+        "{err}"
+    );
+}
+
+/// Bad scenes name what is wrong: a missing material library by its file, an unknown material by
+/// its name, a bow-tie quad as a polygon that crosses itself; a negative option gets the option's
+/// own message, not a parse error.
+#[test]
+fn bad_scenes_say_what_is_wrong() {
+    let dir = tmp("bad-scenes");
+    std::fs::create_dir_all(&dir).unwrap();
+    let lit = dir.join("out.ply");
+    let err = |obj: &str, mtl: Option<&str>| {
+        let scene = dir.join("s.obj");
+        std::fs::write(&scene, obj).unwrap();
+        if let Some(mtl) = mtl {
+            std::fs::write(dir.join("s.mtl"), mtl).unwrap();
+        } else {
+            let _ = std::fs::remove_file(dir.join("s.mtl"));
+        }
+        let out = vunify(&[
+            "radiosity",
+            scene.to_str().unwrap(),
+            "-o",
+            lit.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(1));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let square = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+    let light = "newmtl light\nKd 0.5 0.5 0.5\nKe 1 1 1\n";
+    let e = err(
+        &format!("mtllib s.mtl\n{square}usemtl light\nf 1 2 3 4\n"),
+        None,
+    );
+    assert!(e.contains("s.mtl") && e.contains("line 1"), "{e}");
+    let e = err(
+        &format!("mtllib s.mtl\n{square}usemtl paint\nf 1 2 3 4\n"),
+        Some(light),
+    );
+    assert!(
+        e.contains("'paint'") && e.contains("line 6") && e.contains("light"),
+        "{e}"
+    );
+    let e = err(
+        &format!("mtllib s.mtl\n{square}usemtl light\nf 1 2 4 3\n"),
+        Some(light),
+    );
+    assert!(e.contains("crosses itself"), "{e}");
+    let out = vunify(&["superfaces", "x.ply", "-o", "y.ply", "--epsilon", "-1"]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--epsilon must be"),
+        "{out:?}"
+    );
+    let out = vunify(&["simplify", "x.obj", "-o", "y.obj", "--epsilon", "-1"]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--epsilon must be"),
+        "{out:?}"
+    );
+}

@@ -65,6 +65,7 @@ pub fn meshopt_simplify(mesh: &vunify::mesh::Mesh, target: usize) -> vunify::mes
         triangles,
         colors: None,
         normals: None,
+        radiosity: None,
         unreferenced_vertices: 0,
         one_sided: false,
         ..mesh.clone()

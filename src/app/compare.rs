@@ -1,7 +1,7 @@
-//! Seed 003's comparison tool: the same model in up to four viewports, one per merge metric, each a
+//! The comparison tool of Chen's report on quadric edge collapse: the same model in up to four viewports, one per merge metric, each a
 //! build-order cut at the same triangle count, which can sweep down and up; any viewport's cut can be
 //! exported as OBJ. Below them, on request, the simplifications within a distance at one ε —
-//! `bounded` and the seed paper's three envelope methods — each at the triangle count it reached.
+//! `bounded` and Zou, Shen and Peng's three envelope methods — each at the triangle count it reached.
 
 use super::model::{LoadMessage, Loaded, spawn_load, spawn_within};
 use crate::mesh::{Mesh, Part};

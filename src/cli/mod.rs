@@ -56,13 +56,13 @@ enum Command {
     /// Symmetric Hausdorff distance between two meshes (Metro-style dense sampling), or with
     /// --certified, proven lower and upper bounds on it.
     Measure(measure::MeasureArgs),
-    /// Simplify a mesh within a distance ε: certified both ways (bounded), or inside the seed
-    /// paper's envelopes (offset-patch, single-envelope, cohen).
+    /// Simplify a mesh within a distance ε: certified both ways (bounded), or inside Zou, Shen
+    /// and Peng's envelopes (offset-patch, single-envelope, cohen).
     Simplify(simplify::SimplifyArgs),
     /// Light a scene (OBJ + MTL) by progressive refinement radiosity and write the lit mesh (PLY
     /// or OBJ with per-vertex radiosity).
     Radiosity(radiosity::RadiosityArgs),
-    /// Simplify a lit mesh the seed paper's way: superfaces of coplanar patches of similar
+    /// Simplify a lit mesh Liu and Wu's way: superfaces of coplanar patches of similar
     /// radiosity, straightened boundaries, triangulated anew.
     Superfaces(superfaces::SuperfacesArgs),
 }
@@ -115,6 +115,76 @@ fn progress_bar(len: u64, template: &str) -> indicatif::ProgressBar {
             .progress_chars("=> "),
     );
     bar
+}
+
+/// Progress for logs: when standard error is not a terminal (the bar is hidden there), a line every
+/// few seconds, so a long job in CI or under `nohup` shows it is alive and how far it got.
+struct ProgressLog {
+    what: &'static str,
+    start: std::time::Instant,
+    last: std::time::Instant,
+    enabled: bool,
+}
+
+impl ProgressLog {
+    /// Seconds between lines.
+    const EVERY: f64 = 3.0;
+
+    fn new(what: &'static str) -> ProgressLog {
+        use std::io::IsTerminal;
+        let now = std::time::Instant::now();
+        ProgressLog {
+            what,
+            start: now,
+            last: now,
+            enabled: !std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn say(&mut self, message: &str) {
+        if self.enabled && self.last.elapsed().as_secs_f64() >= Self::EVERY {
+            self.last = std::time::Instant::now();
+            eprintln!(
+                "{}: {message} ({:.0} s)",
+                self.what,
+                self.start.elapsed().as_secs_f64()
+            );
+        }
+    }
+}
+
+/// Makes Ctrl-C (SIGINT) set `flag` instead of ending the process, so a long job can stop at its
+/// next step and still write what it has; a second Ctrl-C ends the process as usual. Written
+/// against `libc` directly (already a dependency) rather than a signal crate, for the first
+/// compile's sake: a handler that stores one atomic is all it takes.
+fn on_interrupt(flag: &'static std::sync::atomic::AtomicBool) {
+    #[cfg(unix)]
+    {
+        use std::sync::atomic::{AtomicPtr, Ordering};
+        static FLAG: AtomicPtr<std::sync::atomic::AtomicBool> =
+            AtomicPtr::new(std::ptr::null_mut());
+        extern "C" fn handler(_: libc::c_int) {
+            let flag = FLAG.load(Ordering::SeqCst);
+            // SAFETY: FLAG is null or points at a `'static` AtomicBool; both operations are
+            // async-signal-safe (an atomic load and store, and `signal`).
+            unsafe {
+                if let Some(flag) = flag.as_ref() {
+                    flag.store(true, Ordering::SeqCst);
+                }
+                libc::signal(libc::SIGINT, libc::SIG_DFL);
+            }
+        }
+        FLAG.store(
+            std::ptr::from_ref(flag).cast_mut(),
+            std::sync::atomic::Ordering::SeqCst,
+        );
+        // SAFETY: `handler` is an `extern "C" fn(c_int)` that only does async-signal-safe work.
+        unsafe {
+            libc::signal(libc::SIGINT, handler as *const () as libc::sighandler_t);
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = flag;
 }
 
 /// A model's tree, read from a .vtree or built from a mesh with the default options, with a progress

@@ -187,6 +187,11 @@ pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
     if mesh.colors.is_some() {
         header.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
     }
+    if mesh.radiosity.is_some() {
+        header.push_str(
+            "property float radiosity_r\nproperty float radiosity_g\nproperty float radiosity_b\n",
+        );
+    }
     let _ = writeln!(header, "element face {}", mesh.triangles.len());
     header.push_str("property list uchar int vertex_indices\nend_header\n");
     let mut out = header.into_bytes();
@@ -201,6 +206,11 @@ pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
                     .to_array()
                     .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8),
             );
+        }
+        if let Some(radiosity) = &mesh.radiosity {
+            for x in radiosity[i].to_array() {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
         }
     }
     for t in &mesh.triangles {

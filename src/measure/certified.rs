@@ -43,6 +43,11 @@ pub struct CertifyOptions {
     /// Give up after splitting this many pieces in one direction; the bounds still hold, but are
     /// farther apart than asked (`converged` is false). Default 500,000 (about 250 MB of pieces).
     pub max_splits: usize,
+    /// A question instead of a measurement: is the distance at most this (a fraction of the
+    /// diagonal)? The search then runs until the upper bound is at most it or the lower bound
+    /// above it (`converged` means decided), however close the bounds must get — the tolerances
+    /// above no longer end it, but the absolute floor still does (the answer is then undecided).
+    pub epsilon: Option<f64>,
 }
 
 impl Default for CertifyOptions {
@@ -51,6 +56,7 @@ impl Default for CertifyOptions {
             relative: 0.01,
             absolute: 1e-5,
             max_splits: 500_000,
+            epsilon: None,
         }
     }
 }
@@ -66,6 +72,9 @@ pub struct Bounds {
     pub splits: usize,
     /// A point of the `from` surface where the lower bound was found.
     pub lower_at: [f64; 3],
+    /// With [`CertifyOptions::epsilon`]: `Some(true)` when the distance is proven at most ε,
+    /// `Some(false)` when proven above it, `None` when the search could not decide.
+    pub within: Option<bool>,
 }
 
 /// Both directions: `forward` is A → B (how far A's points are from B), `backward` B → A.
@@ -208,13 +217,22 @@ fn one_sided(from: &Mesh, to: &Bvh, options: &CertifyOptions, unit: f64) -> Boun
         .map(|(i, p)| Queued(p.upper, i))
         .collect();
     let floor = options.absolute * unit;
+    let question = options.epsilon.map(|e| e * unit);
     let mut splits = 0;
     let (upper, converged) = loop {
         let Some(&Queued(top, i)) = queue.peek() else {
             break (lower.distance, true);
         };
-        if top - lower.distance <= (options.relative * lower.distance).max(floor) {
-            break (top, true);
+        match question {
+            Some(e) if top * (1.0 + ROUNDING) <= e || lower.distance * (1.0 - ROUNDING) > e => {
+                break (top, true);
+            }
+            Some(_) if top - lower.distance <= floor => break (top, false),
+            Some(_) => {}
+            None if top - lower.distance <= (options.relative * lower.distance).max(floor) => {
+                break (top, true);
+            }
+            None => {}
         }
         if splits >= options.max_splits {
             break (top, false);
@@ -266,12 +284,22 @@ fn one_sided(from: &Mesh, to: &Bvh, options: &CertifyOptions, unit: f64) -> Boun
             queue.push(Queued(pieces[slot].upper, slot));
         }
     };
+    let within = question.and_then(|e| {
+        if upper * (1.0 + ROUNDING) <= e {
+            Some(true)
+        } else if lower.distance * (1.0 - ROUNDING) > e {
+            Some(false)
+        } else {
+            None
+        }
+    });
     Bounds {
         lower: lower.distance * (1.0 - ROUNDING) / unit,
         upper: (upper * (1.0 + ROUNDING)).max(lower.distance) / unit,
         converged,
         splits,
         lower_at: lower.at.to_array(),
+        within,
     }
 }
 

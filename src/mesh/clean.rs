@@ -46,7 +46,11 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
     // with different colours are a colour seam, such as the corner between two walls of a lit
     // scene, and keep their own colours).
     let remap = if options.weld {
-        weld(&mesh.positions, mesh.colors.as_deref())
+        // Radiosity, where a lit mesh has it, tells colours apart more finely than 8-bit colour.
+        weld(
+            &mesh.positions,
+            mesh.radiosity.as_deref().or(mesh.colors.as_deref()),
+        )
     } else {
         (0..n as u32).collect()
     };
@@ -112,6 +116,7 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
         positions: pick(&mesh.positions),
         colors: mesh.colors.as_ref().map(pick),
         normals: mesh.normals.as_ref().map(pick),
+        radiosity: mesh.radiosity.as_ref().map(pick),
         triangles,
         parts,
         unreferenced_vertices: 0,

@@ -33,6 +33,9 @@ pub struct Mesh {
     /// Linear RGB in `[0, 1]`, e.g. from OBJ `v x y z r g b` or PLY `red green blue`.
     pub colors: Option<Vec<Vec3>>,
     pub normals: Option<Vec<Vec3>>,
+    /// Linear radiosity (RGB, unbounded) of a lit mesh, from PLY `radiosity_r/g/b` (what `vunify
+    /// radiosity` writes beside the display colours); carried through to the PLY files vunify writes.
+    pub radiosity: Option<Vec<Vec3>>,
     pub triangles: Vec<[u32; 3]>,
     pub parts: Vec<Part>,
     /// Vertices of the file that no face uses and that the reader left out before `positions` (the
@@ -88,6 +91,7 @@ impl Mesh {
             positions,
             colors: None,
             normals: None,
+            radiosity: None,
             triangles,
             parts,
             unreferenced_vertices: 0,
@@ -103,6 +107,14 @@ impl Mesh {
         {
             return Err(MeshProblem::ColorCount {
                 colors: c.len(),
+                positions: n,
+            });
+        }
+        if let Some(c) = &self.radiosity
+            && c.len() != n
+        {
+            return Err(MeshProblem::RadiosityCount {
+                radiosity: c.len(),
                 positions: n,
             });
         }
@@ -150,6 +162,8 @@ impl Mesh {
 pub enum MeshProblem {
     #[error("{colors} colours for {positions} positions")]
     ColorCount { colors: usize, positions: usize },
+    #[error("{radiosity} radiosity values for {positions} positions")]
+    RadiosityCount { radiosity: usize, positions: usize },
     #[error("{normals} normals for {positions} positions")]
     NormalCount { normals: usize, positions: usize },
     #[error("position {index} is not finite: {position}")]

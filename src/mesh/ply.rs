@@ -244,6 +244,7 @@ fn parse_with(bytes: &[u8], path: &Path, direct: bool) -> Result<Mesh, InputErro
     let has = |name: &str| vdef.properties.contains_key(name);
     let has_colors = has("red") && has("green") && has("blue");
     let has_normals = has("nx") && has("ny") && has("nz");
+    let has_radiosity = has("radiosity_r") && has("radiosity_g") && has("radiosity_b");
     let color_scale = match vdef.properties.get("red").map(|p| &p.data_type) {
         Some(PropertyType::Scalar(ScalarType::Float | ScalarType::Double)) => 1.0,
         _ => 1.0 / 255.0,
@@ -252,6 +253,7 @@ fn parse_with(bytes: &[u8], path: &Path, direct: bool) -> Result<Mesh, InputErro
     let mut positions = Vec::with_capacity(verts.len());
     let mut colors = Vec::new();
     let mut normals = Vec::new();
+    let mut radiosity = Vec::new();
     let get3 = |v: &DefaultElement, k: usize, names: [&str; 3]| -> Result<Vec3, InputError> {
         let mut out = [0f32; 3];
         for (slot, name) in out.iter_mut().zip(names) {
@@ -274,11 +276,15 @@ fn parse_with(bytes: &[u8], path: &Path, direct: bool) -> Result<Mesh, InputErro
         if has_normals {
             normals.push(get3(v, k, ["nx", "ny", "nz"])?);
         }
+        if has_radiosity {
+            radiosity.push(get3(v, k, ["radiosity_r", "radiosity_g", "radiosity_b"])?);
+        }
     }
     let triangles = fan_triangles(faces, positions.len(), |k, msg| bad(fi, k, msg))?;
     Ok(Mesh {
         colors: has_colors.then_some(colors),
         normals: has_normals.then_some(normals),
+        radiosity: has_radiosity.then_some(radiosity),
         one_sided: one_sided(&header.comments),
         ..Mesh::from_triangles(positions, triangles)
     })

@@ -17,6 +17,7 @@ enum Role {
     Position(usize),
     Color(usize),
     Normal(usize),
+    Radiosity(usize),
     Indices,
     Other,
 }
@@ -111,6 +112,7 @@ pub(super) fn parse(
                 mesh.positions = vertices.positions;
                 mesh.colors = vertices.colors;
                 mesh.normals = vertices.normals;
+                mesh.radiosity = vertices.radiosity;
                 at = end;
             }
             "face" => {
@@ -186,6 +188,7 @@ pub(super) fn parse(
     Ok(Mesh {
         colors: mesh.colors,
         normals: mesh.normals,
+        radiosity: mesh.radiosity,
         ..Mesh::from_triangles(mesh.positions, mesh.triangles)
     })
 }
@@ -201,6 +204,9 @@ fn role(element: &str, name: &str) -> Role {
         ("vertex", "nx") => Role::Normal(0),
         ("vertex", "ny") => Role::Normal(1),
         ("vertex", "nz") => Role::Normal(2),
+        ("vertex", "radiosity_r") => Role::Radiosity(0),
+        ("vertex", "radiosity_g") => Role::Radiosity(1),
+        ("vertex", "radiosity_b") => Role::Radiosity(2),
         ("face", "vertex_indices" | "vertex_index") => Role::Indices,
         _ => Role::Other,
     }
@@ -244,6 +250,7 @@ struct Vertices {
     positions: Vec<Vec3>,
     colors: Option<Vec<Vec3>>,
     normals: Option<Vec<Vec3>>,
+    radiosity: Option<Vec<Vec3>>,
 }
 
 /// `count` vertex records from `at`; with the byte after them.
@@ -265,6 +272,7 @@ fn vertices(
         }
     }
     let (has_colors, has_normals) = (has(Role::Color), has(Role::Normal));
+    let has_radiosity = has(Role::Radiosity);
     let color_scale = match fields
         .iter()
         .find(|f| f.role == Role::Color(0))
@@ -304,15 +312,16 @@ fn vertices(
             ),
         ));
     }
-    // One record: position, colour, normal.
-    let decode = |v: usize| -> Result<[Vec3; 3], InputError> {
+    // One record: position, colour, normal, radiosity.
+    let decode = |v: usize| -> Result<[Vec3; 4], InputError> {
         let base = at + v * record;
-        let mut out = [Vec3::ZERO; 3];
+        let mut out = [Vec3::ZERO; 4];
         for (f, &offset) in fields.iter().zip(&offsets) {
             let (slot, k) = match f.role {
                 Role::Position(k) => (0, k),
                 Role::Color(k) if has_colors => (1, k),
                 Role::Normal(k) if has_normals => (2, k),
+                Role::Radiosity(k) if has_radiosity => (3, k),
                 _ => continue,
             };
             let PropertyType::Scalar(t) = &f.ty else {
@@ -331,7 +340,7 @@ fn vertices(
         out[1] *= color_scale;
         Ok(out)
     };
-    let records: Vec<[Vec3; 3]> = match (0..count)
+    let records: Vec<[Vec3; 4]> = match (0..count)
         .into_par_iter()
         .with_min_len(1 << 14)
         .map(decode)
@@ -347,6 +356,7 @@ fn vertices(
             positions: pick(0),
             colors: has_colors.then(|| pick(1)),
             normals: has_normals.then(|| pick(2)),
+            radiosity: has_radiosity.then(|| pick(3)),
         },
         end,
     ))

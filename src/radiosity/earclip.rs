@@ -1,4 +1,4 @@
-//! Triangulating a superface the seed paper's way (Liu and Wu, §3): holes are bridged to the outer
+//! Triangulating a superface Liu and Wu's way (§3 of their paper): holes are bridged to the outer
 //! ring, in `TOP` order, through the best outer edge; the one simple polygon that makes is ear-clipped,
 //! always at the convex corner whose ear has the largest weight `cos A + cos B + cos C − 1` (0 for
 //! reflex corners), never at an ear holding another corner, updating the two neighbours' weights.

@@ -1,4 +1,4 @@
-//! Radiosity illumination meshes (seed 000's input): a progressive refinement solver with adaptive,
+//! Radiosity illumination meshes (the input of Liu and Wu's simplification): a progressive refinement solver with adaptive,
 //! conforming subdivision along shadow boundaries (`solve`), over scenes read from OBJ + MTL
 //! (`scene`), written as lit meshes with per-vertex and per-element radiosity (`output`). See
 //! docs/RADIOSITY.md.

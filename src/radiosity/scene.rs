@@ -58,10 +58,16 @@ impl Scene {
             single_index: true,
             ..Default::default()
         };
+        let text = std::fs::read(path).map_err(|e| error(format!("cannot read: {e}")))?;
+        let libraries = check_materials(path, &String::from_utf8_lossy(&text)).map_err(error)?;
         let (models, materials) =
             tobj::load_obj(path, &options).map_err(|e| error(format!("cannot read: {e}")))?;
-        let materials =
-            materials.map_err(|e| error(format!("cannot read its MTL library: {e}")))?;
+        let materials = materials.map_err(|e| {
+            error(format!(
+                "cannot read its MTL library {}: {e}",
+                libraries.join(", ")
+            ))
+        })?;
         let mut scene = Scene::default();
         for m in &materials {
             scene.materials.push(material(m).map_err(error)?);
@@ -129,6 +135,17 @@ impl Scene {
             .iter()
             .map(|c| c.distance(corners[0]))
             .fold(0.0, f64::max);
+        if let Some((i, j)) = crossing_edges(&corners) {
+            let k = corners.len();
+            return Err(format!(
+                "{what}: the polygon crosses itself (a bow-tie): its edges {}–{} and {}–{} \
+                 intersect; give each half as a polygon of its own",
+                i + 1,
+                (i + 1) % k + 1,
+                j + 1,
+                (j + 1) % k + 1
+            ));
+        }
         if normal.length() <= 1e-12 * size * size {
             return Err(format!("{what}: the polygon has zero area"));
         }
@@ -192,6 +209,101 @@ fn material(m: &tobj::Material) -> Result<Material, String> {
         reflectance,
         emission,
     })
+}
+
+/// Checks the OBJ text's `mtllib` and `usemtl` lines before tobj reads them (tobj drops an unknown
+/// material silently and names no file when a library is missing): every library exists and every
+/// material used is defined in one. Returns the libraries' paths.
+fn check_materials(path: &Path, text: &str) -> Result<Vec<String>, String> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut defined: Vec<String> = Vec::new();
+    let mut libraries = Vec::new();
+    for (number, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("mtllib") => {
+                for name in words {
+                    let file = dir.join(name);
+                    let mtl = std::fs::read_to_string(&file).map_err(|e| {
+                        format!(
+                            "line {}: material library {} cannot be read: {e}",
+                            number + 1,
+                            file.display()
+                        )
+                    })?;
+                    defined.extend(mtl.lines().filter_map(|l| {
+                        let mut w = l.split_whitespace();
+                        (w.next() == Some("newmtl")).then(|| w.collect::<Vec<_>>().join(" "))
+                    }));
+                    libraries.push(file.display().to_string());
+                }
+            }
+            Some("usemtl") => {
+                let name = words.collect::<Vec<_>>().join(" ");
+                if !defined.contains(&name) {
+                    return Err(format!(
+                        "line {}: material '{name}' is not defined in {} (it defines: {})",
+                        number + 1,
+                        if libraries.is_empty() {
+                            "any material library (no `mtllib` line before it)".to_string()
+                        } else {
+                            libraries.join(", ")
+                        },
+                        if defined.is_empty() {
+                            "none".to_string()
+                        } else {
+                            defined.join(", ")
+                        }
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(libraries)
+}
+
+/// Two edges of the polygon that cross (not neighbours), in its own plane: a bow-tie. `None` for
+/// a simple polygon. The plane is the one of the largest triangle of corner 0 and two others, so a
+/// symmetric bow-tie (whose Newell normal is zero) has one too.
+fn crossing_edges(corners: &[DVec3]) -> Option<(usize, usize)> {
+    let k = corners.len();
+    if k < 4 {
+        return None;
+    }
+    let mut n = DVec3::ZERO;
+    for i in 1..k {
+        for j in i + 1..k {
+            let c = (corners[i] - corners[0]).cross(corners[j] - corners[0]);
+            if c.length_squared() > n.length_squared() {
+                n = c;
+            }
+        }
+    }
+    if n == DVec3::ZERO {
+        return None;
+    }
+    let n = n.normalize();
+    let u = n.any_orthonormal_vector();
+    let v = n.cross(u);
+    let p: Vec<(f64, f64)> = corners.iter().map(|c| (c.dot(u), c.dot(v))).collect();
+    let orient = |a: (f64, f64), b: (f64, f64), c: (f64, f64)| {
+        (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)
+    };
+    for i in 0..k {
+        for j in i + 2..k {
+            if (j + 1) % k == i {
+                continue;
+            }
+            let (a, b, c, d) = (p[i], p[(i + 1) % k], p[j], p[(j + 1) % k]);
+            let (d1, d2) = (orient(a, b, c), orient(a, b, d));
+            let (d3, d4) = (orient(c, d, a), orient(c, d, b));
+            if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+                return Some((i, j));
+            }
+        }
+    }
+    None
 }
 
 /// Newell's normal: twice the polygon's vector area.

@@ -101,6 +101,17 @@ pub fn simplify_bounded(
     options: &BoundedOptions,
     progress: &mut dyn FnMut(usize),
 ) -> Result<(Mesh, BoundedStats), DistanceError> {
+    simplify_watched(mesh, options, progress, &mut |_| {})
+}
+
+/// [`simplify_bounded`], showing the working mesh to `watch` after every accepted collapse (the
+/// tests check the bookkeeping there).
+fn simplify_watched(
+    mesh: &Mesh,
+    options: &BoundedOptions,
+    progress: &mut dyn FnMut(usize),
+    watch: &mut dyn FnMut(&Work),
+) -> Result<(Mesh, BoundedStats), DistanceError> {
     let start = std::time::Instant::now();
     if mesh.triangles.is_empty() {
         return Err(DistanceError::Empty);
@@ -140,6 +151,7 @@ pub fn simplify_bounded(
         stats.collapses_tried += 1;
         if let Some(merged) = w.try_collapse(c.a, c.b, eps, &original, &originals, &mut stats) {
             stats.collapses_accepted += 1;
+            watch(&w);
             for n in w.neighbours(merged) {
                 queue.push(w.candidate(merged.min(n), merged.max(n)));
             }
@@ -474,17 +486,31 @@ impl Work {
         self.quadric[a as usize] += qb;
         self.version[a as usize] += 1;
         self.version[b as usize] += 1;
-        // Certifying sets. The faces an affected original now relies on are untouched faces it
-        // relied on before (whose lists still name it: lists are only ever cleared when their face
-        // changes) and ring faces, whose lists were cleared above.
+        // Certifying sets. The faces an affected original now relies on are ring faces, whose
+        // lists were cleared above; untouched faces it relied on before (whose lists still name
+        // it: lists are only cleared when their face changes); and untouched faces just beyond
+        // the ring that its new proof found, whose lists may not name it yet — without that, a
+        // later change to such a face would not re-certify it, and its proof would go stale.
         for (&o, faces) in affected.iter().zip(support) {
             for &f in &faces {
-                if kept.binary_search(&f).is_ok() {
-                    self.covers[f as usize].push(o);
+                let list = &mut self.covers[f as usize];
+                if !list.contains(&o) {
+                    list.push(o);
                 }
             }
             self.certified_by[o as usize] = faces;
         }
+    }
+
+    /// The bookkeeping's invariant: every original's certifying faces are alive and name it in
+    /// their `covers` lists. Returns the first original for which it fails.
+    #[cfg(test)]
+    fn stale_original(&self) -> Option<u32> {
+        (0..self.certified_by.len() as u32).find(|&o| {
+            self.certified_by[o as usize]
+                .iter()
+                .any(|&f| !self.alive[f as usize] || !self.covers[f as usize].contains(&o))
+        })
     }
 
     fn into_mesh(self) -> Mesh {
@@ -494,4 +520,64 @@ impl Work {
 
 fn bounds(t: &[DVec3; 3]) -> (DVec3, DVec3) {
     (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use proptest::prelude::*;
+
+    /// A grid of `n × n` vertices over the unit square, heights from `h`, two triangles a cell.
+    fn height_field(n: usize, h: &[f32]) -> Mesh {
+        let positions = (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n, i / n);
+                Vec3::new(
+                    x as f32 / (n - 1) as f32,
+                    y as f32 / (n - 1) as f32,
+                    h[i % h.len()],
+                )
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let v = (y * n + x) as u32;
+                let n = n as u32;
+                triangles.push([v, v + 1, v + n + 1]);
+                triangles.push([v, v + n + 1, v + n]);
+            }
+        }
+        Mesh {
+            positions,
+            triangles,
+            ..Default::default()
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// After every accepted collapse, every original triangle's certifying faces are alive and
+        /// name it, so a change to any of them re-certifies it (the proof can never go stale).
+        #[test]
+        fn certifying_faces_name_their_originals(
+            n in 5usize..11,
+            heights in proptest::collection::vec(-0.08f32..0.08, 1..40),
+            epsilon in 0.005f64..0.08,
+        ) {
+            let mesh = height_field(n, &heights);
+            let options = BoundedOptions { epsilon, target_triangles: 0 };
+            let mut stale = None;
+            let mut collapses = 0;
+            simplify_watched(&mesh, &options, &mut |_| {}, &mut |w| {
+                collapses += 1;
+                if stale.is_none() {
+                    stale = w.stale_original().map(|o| (collapses, o));
+                }
+            })
+            .unwrap();
+            prop_assert!(stale.is_none(), "after collapse {:?} (collapse, original)", stale);
+        }
+    }
 }

@@ -15,7 +15,7 @@ pub enum Metric {
     QemMidpoint,
     /// Cost = squared edge length, vertex at the midpoint (Chen's comparison, method 1).
     EdgeLength,
-    /// Seed 001 eq. 2: w1·E_dist + w2·E_feature with Tables 1 and 2.
+    /// Tao, Cheng, Pan and Shi's eq. 2: w1·E_dist + w2·E_feature with Tables 1 and 2.
     Hybrid,
 }
 

@@ -73,6 +73,7 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
         normals: tree
             .has_normals
             .then(|| pick(|n| Vec3::from_array(n.normal))),
+        radiosity: None,
         parts: vec![Part {
             name: "lod".into(),
             triangles: 0..triangles.len() as u32,

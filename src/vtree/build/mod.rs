@@ -68,9 +68,9 @@ pub struct BuildOptions {
     /// At most this many nearest non-edge partners per vertex. Default 2: close pairs matter where
     /// two sheets meet, and there each vertex needs only its nearest few across the gap.
     pub max_pairs_per_vertex: usize,
-    /// Seed 001's θ in degrees: an edge whose dihedral angle is below it is sharp. Default 120°.
+    /// Tao et al.'s θ in degrees: an edge whose dihedral angle is below it is sharp. Default 120°.
     pub sharp_angle_deg: f32,
-    /// Seed 001's w1 and w2, used by `Metric::Hybrid`.
+    /// Tao et al.'s w1 and w2, used by `Metric::Hybrid`.
     pub hybrid: HybridWeights,
     /// How much vertex colour counts, for meshes that have it (lit meshes, scans with colour): a
     /// colour difference of one full channel costs like a deviation of this many bounding-box
