@@ -501,9 +501,10 @@ fn radiosity_budget_and_interrupt() {
     let j = run(&["--max-seconds", "0", "--element-size", "0.1"]);
     assert_eq!(j["stop"], "max-seconds");
 
-    // Ctrl-C after a few seconds of plain progressive refinement (which would take minutes).
+    // Ctrl-C once plain progressive refinement (which would take minutes) reports shots on a
+    // standard error that is not a terminal.
     let _ = std::fs::remove_file(&lit);
-    let child = Command::new(env!("CARGO_BIN_EXE_vunify"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vunify"))
         .args([
             "radiosity",
             scene.to_str().unwrap(),
@@ -517,11 +518,24 @@ fn radiosity_budget_and_interrupt() {
             "1e-9",
             "--json",
         ])
+        .args(["--element-size", "0.05"])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_secs(8));
+    let stderr = child.stderr.take().unwrap();
+    let mut progress = String::new();
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(stderr));
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        progress.push_str(&line);
+        if line.starts_with("radiosity: ") && line.contains("shots") {
+            break;
+        }
+    }
+    assert!(progress.contains("shots"), "{progress}");
+    // Keep reading, so that what it writes after the interrupt finds the pipe open.
+    let rest = std::thread::spawn(move || lines.map_while(Result::ok).collect::<Vec<_>>());
     // SAFETY: sending a signal to our own child process, whose pid is valid until it is reaped.
     unsafe {
         libc::kill(child.id() as libc::pid_t, libc::SIGINT);
@@ -530,11 +544,7 @@ fn radiosity_budget_and_interrupt() {
     let j: serde_json::Value = serde_json::from_str(&ok(&out)).unwrap();
     assert_eq!(j["stop"], "interrupted");
     assert!(lit.exists());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("radiosity: ") && err.contains("shots"),
-        "{err}"
-    );
+    rest.join().unwrap();
 }
 
 /// Bad scenes name what is wrong: a missing material library by its file, an unknown material by
