@@ -132,11 +132,12 @@ fn lod_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings)
     );
     ui.checkbox(
         &mut settings.tests.strict,
-        "strict bound (nothing strays over τ)",
+        "strict bound (refined nodes stray ≤ τ)",
     )
     .on_hover_text(
         "Project each node's strict deviation bound instead of its measured error: \
-         a guarantee, with many more triangles",
+         no refined node strays over τ, with many more triangles (a region the back-face \
+         test leaves coarse can still show at a silhouette)",
     );
     let mut frozen = view.frozen.is_some();
     if ui

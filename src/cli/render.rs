@@ -46,7 +46,9 @@ pub struct RenderArgs {
     #[arg(long)]
     geometric: bool,
     /// Screen-space test on the strict deviation bound instead of the measured error: no point of
-    /// the surface drawn more than τ pixels from where it belongs, with many more triangles.
+    /// a node the view tests refine is drawn more than τ pixels from where it belongs, with many
+    /// more triangles. Not yet a whole-picture guarantee: a region the back-face test leaves coarse
+    /// can still show where its triangles turn towards the camera (docs/RUNTIME.md).
     #[arg(long)]
     strict: bool,
     /// Surface colours: auto (baked for lit meshes from `vunify radiosity`, else vertex colours if
