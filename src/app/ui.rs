@@ -132,12 +132,12 @@ fn lod_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings)
     );
     ui.checkbox(
         &mut settings.tests.strict,
-        "strict bound (refined nodes stray ≤ τ)",
+        "strict bound (nothing in view strays over τ)",
     )
     .on_hover_text(
         "Project each node's strict deviation bound instead of its measured error: \
-         no refined node strays over τ, with many more triangles (a region the back-face \
-         test leaves coarse can still show at a silhouette)",
+         nothing in view strays over τ, with many more triangles (the back-face test is \
+         left out under it)",
     );
     let mut frozen = view.frozen.is_some();
     if ui

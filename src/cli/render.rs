@@ -46,9 +46,8 @@ pub struct RenderArgs {
     #[arg(long)]
     geometric: bool,
     /// Screen-space test on the strict deviation bound instead of the measured error: no point of
-    /// a node the view tests refine is drawn more than τ pixels from where it belongs, with many
-    /// more triangles. Not yet a whole-picture guarantee: a region the back-face test leaves coarse
-    /// can still show where its triangles turn towards the camera (docs/RUNTIME.md).
+    /// a node in the view is drawn more than τ pixels from where it belongs, with many more
+    /// triangles (the back-face test is left out: docs/RUNTIME.md).
     #[arg(long)]
     strict: bool,
     /// Surface colours: auto (baked for lit meshes from `vunify radiosity`, else vertex colours if

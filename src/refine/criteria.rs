@@ -164,7 +164,7 @@ pub struct Tests {
     /// The screen-space test projects the strict deviation bound ([`Bounds::bound`](super::hierarchy::Bounds::bound))
     /// instead of the measured error: then no point of the input surface is drawn more than τ
     /// pixels from where it belongs, at the price of many more triangles (the bound counts sliding
-    /// along the surface as deviation). Off by default.
+    /// along the surface as deviation, and the back-face test is left out). Off by default.
     pub strict: bool,
 }
 
@@ -229,8 +229,12 @@ impl Tests {
     /// [`Tests::visible`] of a node's gathered data.
     #[inline]
     pub fn sees(&self, view: &View, n: &NodeView) -> bool {
+        // Under the strict bound the back-face test is left out: a node it culls stays coarse
+        // whatever its bound, and its triangles, which join refined neighbours, can turn towards
+        // the camera and show (issue 37 §1, docs/RUNTIME.md).
         let culled = (self.frustum && view.outside(n.center, n.radius))
             || (self.normal
+                && !self.strict
                 && view.back_facing(n.center, n.radius, decode_normal(n.cone_axis), n.cone_sin));
         !culled
     }
@@ -280,6 +284,34 @@ mod tests {
             !v.outside(Vec3::new(0.0, 6.5, 0.0), 1.0),
             "straddles the top plane"
         );
+    }
+
+    /// The strict bound's promise needs every node it weighs: under `strict` the back-face test
+    /// culls nothing (a node it culled stayed coarse, and a triangle joining it to refined
+    /// neighbours drew a sliver across the Cornell box's ceiling at any τ), while the frustum
+    /// test still culls what lies outside the view.
+    #[test]
+    fn strict_leaves_out_the_back_face_test() {
+        let v = View::new(&camera());
+        let facing_away = NodeView {
+            center: Vec3::ZERO,
+            radius: 0.5,
+            error: 0.1,
+            cone_axis: super::super::hierarchy::encode_normal(Vec3::NEG_Z),
+            cone_sin: 0.1,
+        };
+        let default = Tests::default();
+        let strict = Tests {
+            strict: true,
+            ..Tests::default()
+        };
+        assert!(!default.sees(&v, &facing_away));
+        assert!(strict.sees(&v, &facing_away));
+        let outside = NodeView {
+            center: Vec3::new(0.0, 50.0, 0.0),
+            ..facing_away
+        };
+        assert!(!strict.sees(&v, &outside));
     }
 
     #[test]
