@@ -84,6 +84,8 @@ pub fn look_rotation(forward: Vec3, up: Vec3) -> Quat {
 #[derive(Clone, Copy, Debug)]
 pub struct View {
     pub eye: Vec3,
+    /// The direction the camera looks: view depth is `forward · (p − eye)`.
+    forward: Vec3,
     /// Inward-facing planes `(n, d)`, `|n| = 1`: left, right, bottom, top, near, far.
     planes: [Vec4; 6],
     /// Pixels covered by one unit of length, facing the camera at distance 1:
@@ -103,6 +105,7 @@ impl View {
         });
         View {
             eye: camera.position,
+            forward: camera.forward(),
             planes,
             px_per_unit: camera.viewport_px[1] as f32 / (2.0 * (camera.fov_y_radians * 0.5).tan()),
             near: camera.near,
@@ -148,6 +151,37 @@ impl View {
     pub fn projected_px(&self, error: f32, center: Vec3, radius: f32) -> f32 {
         let d = (center.distance(self.eye) - radius).max(self.near);
         error * self.px_per_unit / d
+    }
+
+    /// Whether triangle `[a, b, c]` lies wholly outside the view: all three corners outside one
+    /// plane (conservative: a triangle across a frustum corner may be called inside).
+    pub fn triangle_outside(&self, corners: [Vec3; 3]) -> bool {
+        self.planes
+            .iter()
+            .any(|p| corners.iter().all(|c| p.truncate().dot(*c) + p.w < 0.0))
+    }
+
+    /// Whether triangle `[a, b, c]`, wound counter-clockwise seen from its front, faces the eye
+    /// (`inward`: the model is wound the other way).
+    pub fn faces_eye([a, b, c]: [Vec3; 3], eye: Vec3, inward: bool) -> bool {
+        let toward = (b - a).cross(c - a).dot(eye - a);
+        if inward { toward < 0.0 } else { toward > 0.0 }
+    }
+
+    /// A bound, in pixels, on how far any point of the sphere moves on screen when it moves by
+    /// `error` in any direction. A point at view depth `z` and distance `d` from the eye moves at most
+    /// `error · px_per_unit · d / z²` pixels (the largest singular value of the perspective map's
+    /// Jacobian, `f / (z cos θ)` with `cos θ = z / d`): off the axis the image stretches, up to
+    /// 1.9× in the corners of a 60° view, which [`View::projected_px`]'s `1 / d` leaves out. The
+    /// point moves along a segment of length `error` from anywhere in the sphere, so along it
+    /// `d ≤ |c − eye| + r + error` and `z ≥ z_c − r − error` (never nearer than the near plane).
+    #[inline]
+    pub fn projected_bound_px(&self, error: f32, center: Vec3, radius: f32) -> f32 {
+        let v = center - self.eye;
+        let reach = radius + error;
+        let z = (self.forward.dot(v) - reach).max(self.near);
+        let d = v.length() + reach;
+        error * self.px_per_unit * d / (z * z)
     }
 }
 
@@ -229,14 +263,23 @@ impl Tests {
     /// [`Tests::visible`] of a node's gathered data.
     #[inline]
     pub fn sees(&self, view: &View, n: &NodeView) -> bool {
-        // Under the strict bound the back-face test is left out: a node it culls stays coarse
-        // whatever its bound, and its triangles, which join refined neighbours, can turn towards
-        // the camera and show (issue 37 §1, docs/RUNTIME.md).
-        let culled = (self.frustum && view.outside(n.center, n.radius))
-            || (self.normal
-                && !self.strict
-                && view.back_facing(n.center, n.radius, decode_normal(n.cone_axis), n.cone_sin));
-        !culled
+        !self.outside(view, n) && !self.faces_away(view, n)
+    }
+
+    /// The frustum test: the node's sphere lies wholly outside the view.
+    #[inline]
+    pub fn outside(&self, view: &View, n: &NodeView) -> bool {
+        self.frustum && view.outside(n.center, n.radius)
+    }
+
+    /// The normal test: every normal of the node's cone faces away from the eye. Under the
+    /// strict bound it is left out: a node it culls stays coarse whatever its bound (issue 37 §1,
+    /// docs/RUNTIME.md).
+    #[inline]
+    pub fn faces_away(&self, view: &View, n: &NodeView) -> bool {
+        self.normal
+            && !self.strict
+            && view.back_facing(n.center, n.radius, decode_normal(n.cone_axis), n.cone_sin)
     }
 
     /// The node's error on screen, in pixels (infinite with the screen-space test off, so that every
@@ -251,6 +294,8 @@ impl Tests {
     pub fn projected(&self, view: &View, n: &NodeView) -> f32 {
         if !self.screen_error {
             return f32::INFINITY;
+        } else if self.strict {
+            return view.projected_bound_px(n.error, n.center, n.radius);
         }
         view.projected_px(n.error, n.center, n.radius)
     }
@@ -314,6 +359,30 @@ mod tests {
         assert!(!strict.sees(&v, &outside));
     }
 
+    /// The per-triangle tests the refiner weighs culled nodes' triangles with (one-sided meshes):
+    /// a triangle wound counter-clockwise towards the eye faces it, and one is outside the view
+    /// only when all its corners are beyond one plane, even if it spans the view from outside.
+    #[test]
+    fn triangle_tests() {
+        let v = View::new(&camera());
+        let eye = camera().position;
+        let toward = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let away = [Vec3::ZERO, Vec3::Y, Vec3::X];
+        assert!(View::faces_eye(toward, eye, false));
+        assert!(!View::faces_eye(away, eye, false));
+        assert!(View::faces_eye(away, eye, true), "inward-wound");
+        assert!(!v.triangle_outside(toward));
+        let far_left = [-20.0, -21.0, -20.0].map(|x| Vec3::new(x, 0.0, 0.0));
+        assert!(v.triangle_outside(far_left));
+        // From far left to far right across the view: no plane has all three corners beyond it.
+        let across = [
+            Vec3::new(-20.0, 0.0, 0.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(20.0, 0.1, 0.0),
+        ];
+        assert!(!v.triangle_outside(across));
+    }
+
     #[test]
     fn normal_test() {
         let v = View::new(&camera());
@@ -336,6 +405,39 @@ mod tests {
         assert!((px - 5.196).abs() < 1e-2, "{px}");
         // Nearest point of the sphere counts: radius 5 → distance 5 → twice the pixels.
         assert!((v.projected_px(0.1, Vec3::ZERO, 5.0) - 2.0 * px).abs() < 1e-2);
+    }
+
+    /// The strict bound holds where `1 / d` does not: a point near the corner of the view, moved by
+    /// `error` in every direction we try, never moves further on screen than the bound says, while
+    /// the plain estimate falls short there; on the axis both agree.
+    #[test]
+    fn strict_bound_covers_off_axis_stretch() {
+        let c = camera();
+        let v = View::new(&c);
+        // On the axis, only the move's own reach towards the eye (10.1 / 9.9²) sets them apart.
+        let on_axis = v.projected_bound_px(0.1, Vec3::ZERO, 0.0);
+        let plain = v.projected_px(0.1, Vec3::ZERO, 0.0);
+        assert!((on_axis / plain - 10.1 * 10.0 / (9.9 * 9.9)).abs() < 1e-3);
+
+        let to_px = |p: Vec3| {
+            let h = c.clip_from_world() * p.extend(1.0);
+            glam::Vec2::new(h.x / h.w * 400.0, h.y / h.w * 300.0)
+        };
+        // Near the top-right corner at depth 10 (the view spans ±7.7 × ±5.8 there).
+        let corner = Vec3::new(7.0, 5.0, 0.0);
+        let (error, bound) = (0.05, v.projected_bound_px(0.05, corner, 0.0));
+        let mut worst: f32 = 0.0;
+        for i in 0..500 {
+            let (a, b) = (i as f32 * 0.7331, i as f32 * 1.917);
+            let dir = Vec3::new(a.sin() * b.cos(), a.sin() * b.sin(), a.cos());
+            worst = worst.max(to_px(corner + error * dir).distance(to_px(corner)));
+        }
+        assert!(worst <= bound * 1.001, "moved {worst} px, bound {bound}");
+        assert!(
+            worst > v.projected_px(error, corner, 0.0) * 1.2,
+            "the plain estimate is short off the axis: {worst} vs {}",
+            v.projected_px(error, corner, 0.0)
+        );
     }
 
     #[test]

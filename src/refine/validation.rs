@@ -127,3 +127,83 @@ pub fn foldovers(h: &Hierarchy, front: &Front) -> (usize, usize) {
         .count();
     (folded, front.indices().len())
 }
+
+/// How far, in pixels, a front draws the input surface from where it belongs in one camera's image
+/// (see [`screen_deviation`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ScreenDeviation {
+    /// The largest distance in pixels between a point of an input triangle and its image on the
+    /// front, over every sample of which either end is in the view.
+    pub worst_px: f32,
+    /// The input triangle (index into [`Hierarchy::triangles`]) where it was.
+    pub worst_triangle: usize,
+    /// Samples with an end in the view.
+    pub checked: usize,
+}
+
+/// Barycentric samples of a triangle: the corners, edge points and interior points of a grid with
+/// four steps a side (15 points).
+fn barycentric_samples() -> impl Iterator<Item = [f32; 3]> {
+    const STEPS: u32 = 4;
+    (0..=STEPS).flat_map(|i| {
+        (0..=STEPS - i).map(move |j| {
+            let (a, b) = (i as f32 / STEPS as f32, j as f32 / STEPS as f32);
+            [a, b, 1.0 - a - b]
+        })
+    })
+}
+
+/// Where a front draws the input surface in `camera`'s image, checked geometrically (no GPU): each
+/// input triangle `(x, y, z)` is drawn as `(g(x), g(y), g(z))`, its corners' active nodes, and a
+/// point `q = αx + βy + γz` of it as `p = αg(x) + βg(y) + γg(z)`. For samples of every input
+/// triangle, wherever `p` or `q` is in the view, this measures the distance between their pixels
+/// (infinite when one end is behind the eye). It bounds both ways the promise asks about:
+/// every drawn point lies that close to the input surface, and every point of the input surface
+/// that close to its image on the front (which is on a drawn triangle, or on the edge or corner a
+/// collapsed triangle shrank to). Occlusion is not weighed: hidden points count as well.
+pub fn screen_deviation(h: &Hierarchy, front: &Front, camera: &super::Camera) -> ScreenDeviation {
+    let count = h.node_count();
+    let mut rep = vec![NIL; count as usize];
+    for u in h.top_down() {
+        rep[u as usize] = match front.state(u) {
+            ACTIVE => u,
+            BELOW => rep[h.parent[u as usize] as usize],
+            _ => NIL,
+        };
+    }
+    let m = camera.clip_from_world();
+    let [w, hgt] = camera.viewport_px.map(|v| v as f32);
+    // Clip coordinates, and whether the point is in the view volume.
+    let clip = |p: glam::Vec3| {
+        let c = m * p.extend(1.0);
+        let inside =
+            c.w > 0.0 && c.x.abs() <= c.w && c.y.abs() <= c.w && (0.0..=c.w).contains(&c.z);
+        (c, inside)
+    };
+    let pixel =
+        |c: glam::Vec4| glam::Vec2::new((c.x / c.w + 1.0) * 0.5 * w, (1.0 - c.y / c.w) * 0.5 * hgt);
+    let samples: Vec<[f32; 3]> = barycentric_samples().collect();
+    let mut out = ScreenDeviation::default();
+    for (i, t) in h.triangles.iter().enumerate() {
+        let input = t.map(|v| h.position[v as usize]);
+        let drawn = t.map(|v| h.position[rep[v as usize] as usize]);
+        for b in &samples {
+            let at = |c: [glam::Vec3; 3]| c[0] * b[0] + c[1] * b[1] + c[2] * b[2];
+            let ((cq, q_in), (cp, p_in)) = (clip(at(input)), clip(at(drawn)));
+            if !(q_in || p_in) {
+                continue;
+            }
+            out.checked += 1;
+            let px = if cq.w > 0.0 && cp.w > 0.0 {
+                pixel(cq).distance(pixel(cp))
+            } else {
+                f32::INFINITY
+            };
+            if px > out.worst_px {
+                out.worst_px = px;
+                out.worst_triangle = i;
+            }
+        }
+    }
+    out
+}

@@ -472,6 +472,21 @@ impl Front {
             .map(|&r| self.records[r as usize].input)
     }
 
+    /// Whether some drawn triangle around active node `u` satisfies `test`, given its corners
+    /// (active nodes) in drawing order. Walks the node's list of live triangles.
+    pub fn any_drawn_around(&self, u: u32, mut test: impl FnMut([u32; 3]) -> bool) -> bool {
+        let mut l = self.head[u as usize];
+        while l != NIL {
+            let (r, k) = Self::unlink(l);
+            let rec = &self.records[r as usize];
+            if rec.slot < DYING && test(rec.corner) {
+                return true;
+            }
+            l = rec.next[k];
+        }
+        false
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.drawn.indices.len()
     }

@@ -276,6 +276,7 @@ impl Builder<'_> {
         } else {
             (a, b)
         };
+        let across_gap = !self.collapser.faces_of(a).any(|(_, f)| f.contains(&b));
         self.removed.clear();
         self.collapser.unify(a, b, cand.position, &mut self.removed);
         let (ai, bi) = (a as usize, b as usize);
@@ -306,6 +307,7 @@ impl Builder<'_> {
             slot: a,
             gone: b,
             position: cand.position,
+            across_gap,
         };
         (node, merged)
     }

@@ -61,6 +61,9 @@ pub(super) struct Merged {
     pub(super) slot: u32,
     pub(super) gone: u32,
     pub(super) position: Vec3,
+    /// No triangle joined the two slots: a merge across a gap (a proximity pair or a loose edge),
+    /// whose triangles now stretch over empty space.
+    pub(super) across_gap: bool,
 }
 
 /// The triangles around a live slot, read once: corners and their slots, for the cone, every
@@ -89,7 +92,10 @@ pub(super) fn finish_node(
     (color_scale, color): (f32, Option<Vec3>),
 ) -> Samples {
     let Merged {
-        blend, ref pending, ..
+        blend,
+        ref pending,
+        across_gap,
+        ..
     } = *merged;
     let (ns, nt) = (
         &done[node.children[0] as usize],
@@ -164,6 +170,18 @@ pub(super) fn finish_node(
             .error
             .max(child.error + distance[pending.len() + k])
             .max(child.error + color_scale * recolored);
+    }
+    // A merge across a gap draws its children's triangles stretched to the new vertex, over empty
+    // space: the measured distances above run from the input to the new surface and miss that
+    // surface's own distance from the input (the slivers of issue 37). Each of those triangles moved
+    // one corner by at most the child's move, so its points stray at most that far from the child's
+    // surface: the child's error plus its move bounds them.
+    if across_gap {
+        for child in [ns, nt] {
+            node.error = node
+                .error
+                .max(child.error + child.position().distance(here));
+        }
     }
     let mut kept = [NONE; SAMPLES];
     for (k, &(_, q)) in kept.iter_mut().zip(&scored) {
