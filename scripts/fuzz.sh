@@ -3,7 +3,7 @@
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
 #
-# SECONDS per target (default 60); targets default to all of them: obj ply off vtree camera_path
+# SECONDS per target (default 60); targets default to all of them: obj ply off gltf vtree camera_path
 # script. Installs cargo-fuzz when it is missing. Each target starts from its committed seeds
 # (fuzz/seeds/TARGET, made by `cargo run --example fuzz_seeds`) and its own growing corpus
 # (fuzz/corpus/TARGET, not committed). A crash stops the run with the input in
@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(obj ply off vtree camera_path script)
+[ ${#targets[@]} -gt 0 ] || targets=(obj ply off gltf vtree camera_path script)
 command -v cargo-fuzz >/dev/null 2>&1 || cargo install cargo-fuzz --locked --quiet
 # --sanitizer none: libFuzzer's coverage works on stable Rust; AddressSanitizer needs nightly, and
 # the readers are safe Rust, where it would find nothing the panics and limits do not.

@@ -4,7 +4,8 @@
 #   scripts/test.sh
 #
 # Installs what the suite needs when it is missing (Mesa lavapipe, the software Vulkan driver the GPU
-# tests render with; Xvfb and the X libraries winit loads, for the viewer's test; cargo-fuzz), then
+# tests render with; Xvfb and the X libraries winit loads, for the viewer's test; node and the
+# Khronos glTF Validator, into tools/npm; cargo-fuzz), then
 # checks formatting and lints, runs every test, and fuzzes each input reader briefly. Set
 # VUNIFY_MODELS to a folder of the real test models (the README lists them) to include the tests on
 # them; CI does. FUZZ_SECONDS (default 30) sets the fuzzing time per reader; 0 skips it.
@@ -13,6 +14,11 @@ cd "$(dirname "$0")/.."
 
 source scripts/deps.sh
 ensure_packages "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}" xvfb
+# The Khronos glTF Validator (npm), which the tests run on every glTF file vunify writes.
+command -v npm >/dev/null || ensure_packages nodejs npm
+if [ ! -d tools/npm/node_modules/gltf-validator ]; then
+  npm install --prefix tools/npm --no-audit --no-fund --loglevel=error gltf-validator@2.0.0-dev.3.10
+fi
 
 if [ -n "${VUNIFY_MODELS:-}" ]; then
   echo "scripts/test.sh: real models from VUNIFY_MODELS=$VUNIFY_MODELS"

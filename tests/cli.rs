@@ -360,7 +360,7 @@ fn simplify_every_method_and_format() {
     let box_mesh = vunify::fixtures::cuboid(glam::Vec3::new(2.0, 1.0, 1.0));
     std::fs::write(&input, vunify::export::obj_string(&box_mesh)).unwrap();
     for method in ["bounded", "offset-patch", "single-envelope", "cohen"] {
-        for ext in ["obj", "ply", "off", "obj.xz"] {
+        for ext in ["obj", "ply", "off", "obj.xz", "glb", "gltf"] {
             let output = tmp(&format!("simplify-{method}.{ext}"));
             let args = [
                 "simplify",
@@ -387,7 +387,10 @@ fn simplify_every_method_and_format() {
     }
     let out = vunify(&["simplify", input.to_str().unwrap(), "-o", "out.stl"]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("must end in .obj, .ply or .off"));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("must end in .obj, .ply, .off (optionally .xz), .glb or .gltf")
+    );
 }
 
 /// `vunify measure A B --certified --epsilon E` answers the question with its exit status: 0 when

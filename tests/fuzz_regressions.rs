@@ -21,3 +21,19 @@ fn ply_slow_unit_6633640a() {
     let e = mesh::parse(&bytes, Format::Ply, Path::new("slow.ply")).expect_err("a bad header");
     assert!(e.to_string().contains("bad PLY header"), "{e}");
 }
+
+/// Found by the glTF fuzzer on 2026-12-05 (a GLB whose JSON lost its `meshes` while a node still
+/// names mesh 0): the `gltf` crate's validation panicked indexing the empty list. Now an error
+/// naming the file.
+#[test]
+fn gltf_crash_43cf39d9() {
+    let bytes = input("gltf-crash-43cf39d9.glb");
+    let e = mesh::gltf::parse(&bytes, Path::new("crash.glb"))
+        .err()
+        .expect("a broken file");
+    assert!(
+        e.to_string()
+            .starts_with("crash.glb: not a valid glTF file"),
+        "{e}"
+    );
+}

@@ -15,6 +15,7 @@ fn parse_as(bytes: &[u8], format: Format) -> Result<Mesh, String> {
         Format::Obj => "hostile.obj",
         Format::Ply => "hostile.ply",
         Format::Off => "hostile.off",
+        Format::Gltf => "hostile.glb",
     };
     parse(bytes, format, Path::new(name)).map_err(|e| e.to_string())
 }
@@ -53,6 +54,35 @@ fn header_counts_of_a_trillion_records_with_a_short_body() {
     assert!(error_of(off, Format::Off).contains("exceed what a file"));
     let off = b"OFF\n3 1000000000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     assert!(error_of(off, Format::Off).contains("exceed what a file"));
+}
+
+/// glTF that lies: an accessor of four billion elements and no buffer view (nothing in the file
+/// bounds it), a GLB whose header or chunk claims more bytes than there are, a GLB of version 1.
+#[test]
+fn gltf_that_lies_about_sizes() {
+    let json = br#"{"asset":{"version":"2.0"},
+"buffers":[{"byteLength":16,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAAAAAA=="}],
+"bufferViews":[{"buffer":0,"byteLength":4},{"buffer":0,"byteOffset":4,"byteLength":12}],
+"accessors":[{"componentType":5126,"count":4000000000,"type":"VEC3","min":[0,0,0],"max":[0,0,0],
+"sparse":{"count":1,"indices":{"bufferView":0,"componentType":5125},"values":{"bufferView":1}}}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}"#;
+    assert!(
+        error_of(json, Format::Gltf).contains("declares 4000000000 elements and no buffer view")
+    );
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(1000u32.to_le_bytes());
+    assert!(error_of(&glb, Format::Gltf).contains("the GLB header says 1000 bytes"));
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(24u32.to_le_bytes());
+    glb.extend(0xFFFF_FFF0u32.to_le_bytes());
+    glb.extend(b"JSON{}  ");
+    assert!(error_of(&glb, Format::Gltf).contains("runs past the end of the GLB"));
+    let mut glb = b"glTF".to_vec();
+    glb.extend(1u32.to_le_bytes());
+    glb.extend(12u32.to_le_bytes());
+    assert!(error_of(&glb, Format::Gltf).contains("GLB version 1"));
 }
 
 /// Found by a probe: an element with no properties takes no bytes, so no file size bounds its

@@ -72,7 +72,7 @@ fn file_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings
         ui.label(RichText::new(m).small().weak());
     }
     ui.collapsing("Open…", |ui| {
-        ui.label("A .vtree opens at once; a mesh (.obj, .ply, .off, .xz) is built in the background. Files can also be dropped on the window.");
+        ui.label("A .vtree opens at once; a mesh (.obj, .ply, .off, .xz, .gltf, .glb) is built in the background. Files can also be dropped on the window.");
         ui.horizontal(|ui| {
             ui.text_edit_singleline(&mut view.open_text);
             if ui.button("Open").clicked() && !view.open_text.trim().is_empty() {

@@ -11,7 +11,9 @@ use vunify::vtree::{self, BuildOptions, Schedule};
 
 #[derive(Args)]
 pub struct BuildArgs {
-    /// Input mesh or scene: .obj (objects and groups become parts), .ply, .off; may end in .xz.
+    /// Input mesh or scene: .obj (objects and groups become parts), .ply, .off (any may end in .xz),
+    /// or glTF 2.0 .gltf / .glb (the default scene flattened; base colour textures baked into vertex
+    /// colours).
     pub input: PathBuf,
     /// Output .vtree file (written atomically). Default: the input's name with .vtree, in the current directory.
     #[arg(short, long)]
@@ -122,6 +124,9 @@ pub fn build_and_write(
     let t0 = Instant::now();
     let (mesh, cleaned) = mesh::load(input, clean)?;
     let load_secs = t0.elapsed().as_secs_f64();
+    for note in &cleaned.notes {
+        eprintln!("note: {}: {note}", input.display());
+    }
     let bar = super::progress_bar(
         mesh.vertex_count().saturating_sub(1) as u64,
         "{msg} [{bar:40}] {pos}/{len} merges ({eta})",

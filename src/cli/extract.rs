@@ -33,7 +33,8 @@ pub struct ExtractArgs {
     file: PathBuf,
     #[command(flatten)]
     target: Target,
-    /// Output mesh, written atomically: .obj, .ply or .off, optionally .xz.
+    /// Output mesh, written atomically: .obj, .ply or .off (optionally .xz), .glb, or .gltf with a
+    /// .bin beside it.
     #[arg(short, long)]
     output: PathBuf,
 }

@@ -38,7 +38,7 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build the vertex tree of a mesh (.obj, .ply or .off, optionally .xz) and write it as .vtree.
+    /// Build the vertex tree of a mesh (.obj, .ply, .off, optionally .xz; .gltf, .glb) and write it as .vtree.
     Build(build::BuildArgs),
     /// Print what a .vtree file holds.
     Info(info::InfoArgs),

@@ -18,7 +18,7 @@ pub struct PathArgs {
     /// What kind of path.
     #[arg(long, value_enum, default_value_t = PathKind::Orbit)]
     kind: PathKind,
-    /// The model (.vtree, or a mesh: .obj, .ply, .off, optionally .xz) whose bounds the path follows.
+    /// The model (.vtree, or a mesh: .obj, .ply, .off, optionally .xz, .gltf, .glb) whose bounds the path follows.
     model: PathBuf,
     /// Length of the path in seconds.
     #[arg(long, default_value_t = 10.0)]

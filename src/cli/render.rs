@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// The model: a .vtree opens at once; a mesh (.obj, .ply, .off, optionally .xz) is built first; a
+    /// The model: a .vtree opens at once; a mesh (.obj, .ply, .off, optionally .xz, .gltf, .glb) is built first; a
     /// scene (.obj whose materials emit, `Ke`) is lit by radiosity, then built.
     pub model: PathBuf,
     /// Camera path JSON (see `vunify path`); default: an orbit of the model.

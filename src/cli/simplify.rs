@@ -26,9 +26,10 @@ enum Method {
 
 #[derive(Args)]
 pub struct SimplifyArgs {
-    /// Input mesh (.obj, .ply, .off, optionally .xz).
+    /// Input mesh (.obj, .ply, .off, optionally .xz, .gltf, .glb).
     input: PathBuf,
-    /// Output mesh, written atomically: .obj, .ply or .off, optionally .xz.
+    /// Output mesh, written atomically: .obj, .ply or .off (optionally .xz), .glb, or .gltf with a
+    /// .bin beside it.
     #[arg(short, long)]
     output: PathBuf,
     /// How to simplify.
@@ -63,7 +64,7 @@ pub fn run(args: SimplifyArgs) -> Result<()> {
     }
     if vunify::mesh::Format::from_path(&args.output).is_none() {
         bail!(
-            "{}: the output name must end in .obj, .ply or .off (optionally .xz)",
+            "{}: the output name must end in .obj, .ply, .off (optionally .xz), .glb or .gltf",
             args.output.display()
         );
     }

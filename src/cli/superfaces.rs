@@ -10,7 +10,7 @@ use vunify::radiosity::superfaces::{SuperfaceOptions, simplify_superfaces};
 pub struct SuperfacesArgs {
     /// The lit mesh, with vertex colours (the PLY or OBJ of `vunify radiosity`).
     input: PathBuf,
-    /// Output mesh, written atomically: .ply, .obj or .off (optionally .xz).
+    /// Output mesh, written atomically: .ply, .obj or .off (optionally .xz), .glb or .gltf.
     #[arg(short, long)]
     output: PathBuf,
     /// ε: patches merge while their relative radiosity change, over areas in units of the mean
@@ -45,7 +45,7 @@ pub fn run(args: SuperfacesArgs) -> Result<()> {
     }
     if mesh::Format::from_path(&args.output).is_none() {
         bail!(
-            "{}: the output name must end in .obj, .ply or .off (optionally .xz)",
+            "{}: the output name must end in .obj, .ply, .off (optionally .xz), .glb or .gltf",
             args.output.display()
         );
     }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct ViewArgs {
-    /// The model: .vtree opens at once, a mesh (.obj, .ply, .off, optionally .xz) is built in the
+    /// The model: .vtree opens at once, a mesh (.obj, .ply, .off, optionally .xz, .gltf, .glb) is built in the
     /// background (and cached), a scene (.obj whose materials emit, `Ke`) is lit by radiosity first.
     /// Default: the bundled model.
     model: Option<PathBuf>,

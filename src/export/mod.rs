@@ -1,5 +1,7 @@
 //! Writing results: atomic file replacement, and meshes as Wavefront OBJ, binary PLY or OFF (each
-//! optionally xz-compressed), the formats vunify reads.
+//! optionally xz-compressed), or glTF 2.0 (`.glb`, `.gltf` + `.bin`), the formats vunify reads.
+
+pub mod gltf;
 
 use crate::mesh::Mesh;
 use std::fmt::Write as _;
@@ -244,21 +246,44 @@ pub fn off_string(mesh: &Mesh) -> String {
     s
 }
 
+fn is_glb(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb"))
+}
+
 /// Writes `mesh` atomically in the format its name asks for (`.obj`, `.ply`, `.off`, each
-/// optionally followed by `.xz`).
+/// optionally followed by `.xz`; `.glb`, or `.gltf` with a `.bin` beside it).
 pub fn write_mesh(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
     use crate::mesh::Format;
     let format = Format::from_path(path).ok_or_else(|| {
-        std::io::Error::other("the output name must end in .obj, .ply or .off (optionally .xz)")
+        std::io::Error::other(
+            "the output name must end in .obj, .ply, .off (optionally .xz), .glb or .gltf",
+        )
     })?;
+    let compressed = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xz"));
+    if compressed && format == Format::Gltf {
+        return Err(std::io::Error::other(
+            "glTF output is not written .xz-compressed",
+        ));
+    }
     let bytes = match format {
         Format::Obj => obj_string(mesh).into_bytes(),
         Format::Ply => ply_bytes(mesh),
         Format::Off => off_string(mesh).into_bytes(),
+        Format::Gltf if is_glb(path) => gltf::glb_bytes(mesh),
+        Format::Gltf => {
+            // The JSON names its buffer, written first beside it (same stem, `.bin`).
+            let bin_path = path.with_extension("bin");
+            let name = bin_path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned());
+            let (doc, bin) = gltf::document(mesh, name.as_deref());
+            write_atomic(&bin_path, &bin)?;
+            serde_json::to_vec_pretty(&doc).map_err(std::io::Error::other)?
+        }
     };
-    let compressed = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("xz"));
     if compressed {
         let mut encoder = xz2::write::XzEncoder::new(Vec::new(), 6);
         encoder.write_all(&bytes)?;

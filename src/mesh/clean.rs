@@ -31,6 +31,8 @@ pub struct CleanReport {
     pub degenerate_faces: usize,
     /// Faces over the same three vertices as an earlier face (either orientation).
     pub duplicate_faces: usize,
+    /// What the reader left out or replaced, one sentence each (see [`super::load`]).
+    pub notes: Vec<String>,
 }
 
 /// Welds, drops degenerate and duplicate faces, then drops unused vertices. Parts keep their order; a
@@ -270,7 +272,8 @@ mod tests {
                 welded_vertices: 1,
                 unused_vertices: 1,
                 degenerate_faces: 1,
-                duplicate_faces: 1
+                duplicate_faces: 1,
+                notes: Vec::new(),
             }
         );
         assert_eq!(out.positions.len(), 4);

@@ -6,6 +6,7 @@
 
 mod clean;
 mod error;
+pub mod gltf;
 mod obj;
 mod off;
 mod ply;
@@ -203,10 +204,13 @@ pub enum Format {
     Obj,
     Ply,
     Off,
+    /// glTF 2.0, `.gltf` (JSON, with its buffers and images beside it or in data URIs) or `.glb`.
+    Gltf,
 }
 
 impl Format {
-    /// From the file name: `.obj`, `.ply`, `.off`, each optionally followed by `.xz`.
+    /// From the file name: `.obj`, `.ply`, `.off`, `.gltf`, `.glb`, each optionally followed by
+    /// `.xz`.
     pub fn from_path(path: &Path) -> Option<Format> {
         let name = path.file_name()?.to_str()?.to_ascii_lowercase();
         let name = name.strip_suffix(".xz").unwrap_or(&name);
@@ -214,6 +218,7 @@ impl Format {
             "obj" => Some(Format::Obj),
             "ply" => Some(Format::Ply),
             "off" => Some(Format::Off),
+            "gltf" | "glb" => Some(Format::Gltf),
             _ => None,
         }
     }
@@ -228,6 +233,7 @@ pub fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh, InputErr
         Format::Obj => obj::parse(bytes, path),
         Format::Ply => ply::parse(bytes, path),
         Format::Off => off::parse(bytes, path),
+        Format::Gltf => gltf::parse(bytes, path).map(|r| r.mesh),
     });
     let mesh = match result {
         Ok(r) => r?,
@@ -245,17 +251,29 @@ pub fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh, InputErr
     Ok(mesh)
 }
 
-/// Reads, parses and cleans a mesh file (`.obj`, `.ply`, `.off`, optionally `.xz`-compressed).
+/// Reads, parses and cleans a mesh file (`.obj`, `.ply`, `.off`, `.gltf`, `.glb`, optionally
+/// `.xz`-compressed). What the reader left out or replaced (a glTF file's line primitives, a missing
+/// texture) is in the report's `notes`.
 pub fn load(path: &Path, options: &CleanOptions) -> Result<(Mesh, CleanReport), InputError> {
     let format = Format::from_path(path).ok_or_else(|| {
         InputError::whole(
             path,
-            "unknown mesh format: expected a .obj, .ply or .off file (optionally .xz)",
+            "unknown mesh format: expected a .obj, .ply, .off, .gltf or .glb file (optionally .xz)",
         )
     })?;
     let bytes = read_maybe_xz(path)?;
-    let raw = parse(&bytes, format, path)?;
-    let (mesh, report) = clean(raw, options);
+    let mut notes = Vec::new();
+    let raw = if format == Format::Gltf {
+        let read = std::panic::catch_unwind(|| gltf::parse(&bytes, path)).map_err(|_| {
+            InputError::whole(path, "the parser failed on this input (internal error)")
+        })??;
+        notes = read.notes;
+        read.mesh
+    } else {
+        parse(&bytes, format, path)?
+    };
+    let (mesh, mut report) = clean(raw, options);
+    report.notes = notes;
     if mesh.triangles.is_empty() {
         return Err(InputError::whole(
             path,
