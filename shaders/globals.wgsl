@@ -9,7 +9,8 @@ struct Globals {
     light: vec4<f32>,
     // x: τ in pixels (debug error colouring); y: near plane; zw: unused.
     params: vec4<f32>,
-    // x: colour mode (0 shaded, 1 vertex colours, 2 tree depth, 3 projected error, 4 baked);
+    // x: colour mode (0 shaded, 1 vertex colours, 2 tree depth, 3 projected error, 4 baked,
+    // 5 base colour texture, 6 UV checker);
     // y: flat shading (1) or smooth (0); z: 1 for the wireframe pass; w: 1 for a one-sided model,
     // whose back faces are not drawn.
     modes: vec4<u32>,

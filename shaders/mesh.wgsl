@@ -4,11 +4,16 @@
 
 
 
+// Base colour textures, a layer each (`vunify::render::textures`), and their sampler.
+@group(0) @binding(1) var textures: texture_2d_array<f32>;
+@group(0) @binding(2) var texture_sampler: sampler;
+
 struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec2<f32>,   // snorm16x2, octahedral; (-1, -1) exactly: unknown
     @location(2) color: vec4<f32>,    // unorm8x4
     @location(3) debug: vec2<f32>,    // (object-space error, depth)
+    @location(4) uv_texture: vec3<f32>, // texture coordinates, and the texture's layer (-1: none)
 }
 
 struct VertexOut {
@@ -16,6 +21,10 @@ struct VertexOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
+    @location(3) uv: vec2<f32>,
+    // One texture a triangle: the provoking vertex's (a triangle's corners share one but where a
+    // coarse node joins two).
+    @location(4) @interpolate(flat) layer: i32,
 }
 
 fn decode_octahedral(e: vec2<f32>) -> vec3<f32> {
@@ -54,6 +63,8 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.clip = g.clip_from_world * vec4<f32>(v.position, 1.0);
     out.world = v.position;
     out.normal = decode_octahedral(v.normal);
+    out.uv = v.uv_texture.xy;
+    out.layer = i32(round(v.uv_texture.z));
     switch g.modes.x {
         case 1u: { out.color = vec4<f32>(v.color.rgb, 1.0); }
         // Baked: 8-bit display colours are sRGB-encoded; decoded here, the sRGB target re-encodes
@@ -65,6 +76,8 @@ fn vs_main(v: VertexIn) -> VertexOut {
             let px = v.debug.x * g.eye.w / d;
             out.color = vec4<f32>(ramp(px / (2.0 * g.params.x)), 1.0);
         }
+        // Texture and UV checker: the vertex colour stands where there is no texture.
+        case 5u, 6u: { out.color = vec4<f32>(v.color.rgb, 1.0); }
         default: { out.color = vec4<f32>(0.78, 0.76, 0.72, 1.0); }
     }
     return out;
@@ -78,6 +91,16 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     if (g.modes.x == 4u) {
         return vec4<f32>(in.color.rgb, 1.0);
     }
+    var base = in.color.rgb;
+    // Sampled outside any branch: derivatives for the mip level need uniform control flow.
+    let texel = textureSample(textures, texture_sampler, in.uv, max(in.layer, 0)).rgb;
+    if (g.modes.x == 5u && in.layer >= 0) {
+        base = texel;
+    } else if (g.modes.x == 6u) {
+        let cell = floor(in.uv * 8.0);
+        let odd = (i32(cell.x) + i32(cell.y)) & 1;
+        base = select(vec3<f32>(0.9, 0.9, 0.85), vec3<f32>(0.15, 0.25, 0.6), odd == 1);
+    }
     var n = in.normal;
     if (g.modes.y == 1u || dot(n, n) < 0.5) {
         // Flat: the face normal from screen-space derivatives (also where a vertex has no normal).
@@ -90,7 +113,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     }
     let diffuse = max(dot(n, normalize(g.light.xyz)), 0.0);
     let shade = g.light.w + (1.0 - g.light.w) * diffuse;
-    return vec4<f32>(in.color.rgb * shade, 1.0);
+    return vec4<f32>(base * shade, 1.0);
 }
 
 @fragment

@@ -17,4 +17,10 @@ pub enum ColorBy {
     Depth,
     /// The node's error projected on screen: blue at 0, green at τ, red at 2τ and above.
     Error,
+    /// The base colour texture, lit (what [`ColorBy::Auto`] draws for a textured model); vertex
+    /// colours where a vertex has no texture.
+    Texture,
+    /// A checker over the texture coordinates (eight squares across a texture), lit: to see
+    /// stretch and seams.
+    Uv,
 }

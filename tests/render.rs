@@ -654,3 +654,95 @@ fn bundled_scenes_fly_in_without_slivers() {
 /// Issue 37's bars for the bundled scenes' fly-ins.
 const SCENE_PSNR_DB: f64 = 38.0;
 const SCENE_DIFFERING: f64 = 0.01;
+
+/// A textured quad, built into a tree and drawn full with `ColorBy::Texture`: the left half of its
+/// 2 × 1 texture is red and the right half blue, so the screen's left and right show them (lit by
+/// the headlight, so only the hue is checked); `ColorBy::Auto` picks the texture too, and the
+/// quad's vertex colour (white) shows under `ColorBy::Shaded`-like modes only.
+///
+/// ```text
+///   (0,1) 2───3 (1,1)      texture: [ red | blue ]
+///         │ ╲ │
+///   (0,0) 0───1 (1,0)
+/// ```
+#[test]
+fn textures_are_drawn_from_the_tree() {
+    let Some(gpu) = gpu() else { return };
+    let mut png = Vec::new();
+    image::RgbaImage::from_fn(2, 1, |x, _| {
+        if x == 0 {
+            image::Rgba([255, 0, 0, 255])
+        } else {
+            image::Rgba([0, 0, 255, 255])
+        }
+    })
+    .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+    .unwrap();
+    // A grid of 8 × 8 quads over the unit square, so that the tree has something to merge.
+    let n = 9;
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (i as f32 / (n - 1) as f32, j as f32 / (n - 1) as f32);
+            positions.push(Vec3::new(x, y, 0.0));
+            // Nearest-texel lookups stay inside each half: u from 0.05 to 0.95.
+            uvs.push(glam::Vec2::new(0.05 + 0.9 * x, 0.5));
+        }
+    }
+    let mut triangles = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let v = (j * n + i) as u32;
+            let n = n as u32;
+            triangles.push([v, v + 1, v + n]);
+            triangles.push([v + n, v + 1, v + n + 1]);
+        }
+    }
+    let mut mesh = Mesh::from_triangles(positions, triangles);
+    mesh.texture_of = Some(vec![0; mesh.positions.len()]);
+    mesh.uvs = Some(uvs);
+    mesh.textures = vec![std::sync::Arc::new(png)];
+    let tree = tree_of(&mesh);
+    let back = vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("t.vtree")).unwrap();
+    assert_eq!(back, tree, "textures survive the file");
+    let h = Hierarchy::new(&back);
+    let size = [200, 200];
+    let target = Offscreen::new(&gpu.device, size);
+    let mut r = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+    r.set_hierarchy(&gpu.device, &gpu.queue, &h);
+    let mut all = Front::new(&h);
+    all.refine_all(&h);
+    r.set_triangles(&gpu.device, &gpu.queue, all.indices());
+    let camera = vunify::refine::Camera::looking_at(
+        Vec3::new(0.5, 0.5, 1.2),
+        Vec3::new(0.5, 0.5, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        size,
+        0.01,
+        10.0,
+    );
+    for color_by in [
+        vunify::render::ColorBy::Texture,
+        vunify::render::ColorBy::Auto,
+    ] {
+        let options = DrawOptions {
+            color_by,
+            ..Default::default()
+        };
+        let image = job::frame(&gpu, &mut r, &target, &camera, &options)
+            .unwrap()
+            .0;
+        let left = image.get_pixel(60, 100).0;
+        let right = image.get_pixel(140, 100).0;
+        assert!(
+            left[0] > 3 * left[2].max(10) && left[0] > 60,
+            "{color_by:?}: left {left:?}"
+        );
+        assert!(
+            right[2] > 3 * right[0].max(10) && right[2] > 60,
+            "{color_by:?}: right {right:?}"
+        );
+    }
+}

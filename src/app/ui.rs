@@ -167,12 +167,20 @@ fn display_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSetti
             ColorBy::Baked => "baked (unlit)",
             ColorBy::Depth => "tree depth",
             ColorBy::Error => "projected error",
+            ColorBy::Texture => "texture",
+            ColorBy::Uv => "UV checker",
         })
         .show_ui(ui, |ui| {
             ui.selectable_value(
                 &mut settings.color_by,
                 ColorBy::Auto,
-                "model (vertex colours if any)",
+                "model (texture, else vertex colours, if any)",
+            );
+            ui.selectable_value(&mut settings.color_by, ColorBy::Texture, "texture");
+            ui.selectable_value(
+                &mut settings.color_by,
+                ColorBy::Uv,
+                "UV checker (seams, stretch)",
             );
             ui.selectable_value(&mut settings.color_by, ColorBy::Shaded, "shaded");
             ui.selectable_value(

@@ -12,8 +12,8 @@ use vunify::vtree::{self, BuildOptions, Schedule};
 #[derive(Args)]
 pub struct BuildArgs {
     /// Input mesh or scene: .obj (objects and groups become parts), .ply, .off (any may end in .xz),
-    /// or glTF 2.0 .gltf / .glb (the default scene flattened; base colour textures baked into vertex
-    /// colours).
+    /// or glTF 2.0 .gltf / .glb (the default scene flattened; base colour textures and texture
+    /// coordinates go through the tree, docs/APPEARANCE.md).
     pub input: PathBuf,
     /// Output .vtree file (written atomically). Default: the input's name with .vtree, in the current directory.
     #[arg(short, long)]

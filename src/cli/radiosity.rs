@@ -137,8 +137,9 @@ pub fn run(args: RadiosityArgs) -> Result<()> {
         s.stop.describe(),
         100.0 * s.unshot
     );
-    if s.ambient != [0.0; 3] {
-        let [r, g, b] = s.ambient;
+    // Rounding leaves a spent scene's ambient a hair below zero: shown as 0, not "-0.0000".
+    let [r, g, b] = s.ambient.map(|x| if x.abs() < 5e-5 { 0.0 } else { x });
+    if [r, g, b] != [0.0; 3] {
         println!("ambient    ({r:.4}, {g:.4}, {b:.4}) added, times each surface's reflectance");
     }
     if INTERRUPTED.load(Ordering::Relaxed) {

@@ -50,9 +50,10 @@ pub struct RenderArgs {
     /// triangles (the back-face test is left out: docs/RUNTIME.md).
     #[arg(long)]
     strict: bool,
-    /// Surface colours: auto (baked for lit meshes from `vunify radiosity`, else vertex colours if
-    /// any or grey, lit), shaded, baked (vertex colours unlit), depth (tree depth) or error (projected error:
-    /// blue 0, green τ, red 2τ).
+    /// Surface colours: auto (the base colour texture for a textured model; baked for lit meshes
+    /// from `vunify radiosity`; else vertex colours if any or grey, lit), shaded, baked (vertex
+    /// colours unlit), depth (tree depth), error (projected error: blue 0, green τ, red 2τ),
+    /// texture, or uv (a checker over the texture coordinates, to see seams and stretch).
     #[arg(long, value_enum, default_value = "auto")]
     color_by: ColorChoice,
 }
@@ -64,6 +65,8 @@ enum ColorChoice {
     Baked,
     Depth,
     Error,
+    Texture,
+    Uv,
 }
 
 impl RenderArgs {
@@ -123,6 +126,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ColorChoice::Baked => ColorBy::Baked,
             ColorChoice::Depth => ColorBy::Depth,
             ColorChoice::Error => ColorBy::Error,
+            ColorChoice::Texture => ColorBy::Texture,
+            ColorChoice::Uv => ColorBy::Uv,
         },
         wireframe: args.wireframe,
         tolerance_px: args.tau,

@@ -1,6 +1,7 @@
 //! glTF 2.0 output: one mesh of one primitive (positions, unit normals when every vertex has one,
 //! linear vertex colours, 32-bit indices), as a `.glb` or as a `.gltf` with its `.bin` beside it.
-//! Textures and materials are not written yet (issue 38): the colours are the vertex colours.
+//! Textures and materials are not written yet (issue 38): the colours written are the vertex
+//! colours (a textured input's texture means).
 
 use crate::mesh::Mesh;
 use serde_json::{Value, json};

@@ -7,14 +7,13 @@
 //! normals and texture coordinates as normalized or plain integers. Every read is checked against its
 //! buffer view and buffer, and an error names the accessor.
 //!
-//! Appearance, for now, is carried as vertex colours: a vertex's colour is its material's base colour
-//! factor, times `COLOR_0`, times the base colour texture's mean around it ([`bake`], through
-//! `KHR_texture_transform`). The tree weighs and the renderer draws vertex colours, so a textured
-//! model opens in colour; detail finer than its vertices is not kept (per-corner texture
-//! coordinates through the tree are issue 38's next step, docs/APPEARANCE.md).
+//! Appearance: each vertex keeps its base colour texture and texture coordinates (through
+//! `KHR_texture_transform`), which the tree carries and the renderer draws; and a colour, its
+//! material's base colour factor × `COLOR_0` × the texture's mean around it ([`bake`]), which the
+//! builder weighs (docs/APPEARANCE.md).
 
 use super::error::InputError;
-use super::{Mesh, Part};
+use super::{Mesh, NO_TEXTURE, Part};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -50,6 +49,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
         images: &images,
         mesh: Mesh::default(),
         colors: Vec::new(),
+        uvs: Vec::new(),
+        texture_of: Vec::new(),
+        texture_index: Default::default(),
         notes,
     };
     let scene = document
@@ -71,9 +73,15 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
     let Reader {
         mut mesh,
         colors,
+        uvs,
+        texture_of,
         notes,
         ..
     } = reader;
+    if !mesh.textures.is_empty() {
+        mesh.uvs = Some(uvs);
+        mesh.texture_of = Some(texture_of);
+    }
     if colors.iter().any(|&c| c != Vec3::ONE) {
         mesh.colors = Some(colors);
     }
@@ -225,6 +233,8 @@ fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
 
 /// A decoded base colour texture: sRGB bytes, row by row (decoded to linear when sampled).
 struct Image {
+    /// The image file's bytes, as the tree keeps them.
+    file: std::sync::Arc<Vec<u8>>,
     width: u32,
     height: u32,
     rgb: Vec<[u8; 3]>,
@@ -344,6 +354,7 @@ fn decode_image(bytes: &[u8]) -> Result<Image, String> {
     let decoded = image::load_from_memory(bytes).map_err(|e| e.to_string())?;
     let rgb = decoded.to_rgb8().pixels().map(|p| p.0).collect();
     Ok(Image {
+        file: std::sync::Arc::new(bytes.to_vec()),
         width: w,
         height: h,
         rgb,
@@ -370,6 +381,11 @@ struct Reader<'a> {
     mesh: Mesh,
     /// One per position, linear RGB (white where the file gives no colour).
     colors: Vec<Vec3>,
+    /// One per position: texture coordinates and texture ([`NO_TEXTURE`] and zero where none).
+    uvs: Vec<Vec2>,
+    texture_of: Vec<u32>,
+    /// The file's image index of each of `mesh.textures`.
+    texture_index: std::collections::HashMap<usize, u32>,
     notes: Vec<String>,
 }
 
@@ -443,45 +459,8 @@ impl Reader<'_> {
                 None => (0..count as u32).collect(),
             };
             let tris = triangles(mode, &indices);
-            let material = primitive.material();
-            let pbr = material.pbr_metallic_roughness();
-            let factor = Vec4::from_array(pbr.base_color_factor());
-            let mut colors = vec![factor.truncate(); count];
-            if let Some(a) = primitive.get(&gltf::Semantic::Colors(0)) {
-                let c = if a.dimensions() == Dimensions::Vec4 {
-                    self.read_per_vertex::<4>(&a, "COLOR_0", count)?
-                        .into_iter()
-                        .map(|c| [c[0], c[1], c[2]])
-                        .collect()
-                } else {
-                    self.read_per_vertex::<3>(&a, "COLOR_0", count)?
-                };
-                for (out, c) in colors.iter_mut().zip(c) {
-                    *out *= Vec3::from_array(c);
-                }
-            }
-            if let Some(info) = pbr.base_color_texture() {
-                let set = info.tex_coord();
-                let image = self.images[info.texture().source().index()].as_ref();
-                match (primitive.get(&gltf::Semantic::TexCoords(set)), image) {
-                    (Some(a), Some(image)) => {
-                        let transform = uv_transform(info.texture_transform());
-                        let uvs: Vec<Vec2> = self
-                            .read_per_vertex::<2>(&a, "TEXCOORD", count)?
-                            .into_iter()
-                            .map(|uv| transform.transform_point2(Vec2::from_array(uv)))
-                            .collect();
-                        let baked = bake(image, &positions, &uvs, &tris);
-                        for (out, c) in colors.iter_mut().zip(baked) {
-                            *out *= c;
-                        }
-                    }
-                    (None, Some(_)) => self.notes.push(format!(
-                        "{what}'s base colour texture reads TEXCOORD_{set}, which it lacks: left out"
-                    )),
-                    _ => {}
-                }
-            }
+            let (colors, uvs_here, texture_here) =
+                self.appearance(&primitive, &what, &positions, &tris)?;
             let base = self.mesh.positions.len() as u32;
             let first = self.mesh.triangles.len() as u32;
             for corners in tris {
@@ -509,6 +488,9 @@ impl Reader<'_> {
                 all.resize(self.mesh.positions.len(), Vec3::ZERO);
             }
             self.colors.extend(colors);
+            self.uvs.extend(uvs_here);
+            self.texture_of
+                .extend(std::iter::repeat_n(texture_here, count));
             let last = self.mesh.triangles.len() as u32;
             if last > first {
                 self.mesh.parts.push(Part {
@@ -520,6 +502,65 @@ impl Reader<'_> {
             }
         }
         Ok(())
+    }
+
+    /// A primitive's vertex colours (base colour factor × `COLOR_0` × the texture's mean around
+    /// each vertex, [`bake`]), texture coordinates and texture (an index into `mesh.textures`).
+    fn appearance(
+        &mut self,
+        primitive: &gltf::Primitive,
+        what: &str,
+        positions: &[[f32; 3]],
+        tris: &[[u32; 3]],
+    ) -> Result<(Vec<Vec3>, Vec<Vec2>, u32), InputError> {
+        let count = positions.len();
+        let material = primitive.material();
+        let pbr = material.pbr_metallic_roughness();
+        let factor = Vec4::from_array(pbr.base_color_factor());
+        let mut colors = vec![factor.truncate(); count];
+        let (mut uvs_here, mut texture_here) = (vec![Vec2::ZERO; count], NO_TEXTURE);
+        if let Some(a) = primitive.get(&gltf::Semantic::Colors(0)) {
+            let c = if a.dimensions() == Dimensions::Vec4 {
+                self.read_per_vertex::<4>(&a, "COLOR_0", count)?
+                    .into_iter()
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect()
+            } else {
+                self.read_per_vertex::<3>(&a, "COLOR_0", count)?
+            };
+            for (out, c) in colors.iter_mut().zip(c) {
+                *out *= Vec3::from_array(c);
+            }
+        }
+        if let Some(info) = pbr.base_color_texture() {
+            let set = info.tex_coord();
+            let image = self.images[info.texture().source().index()].as_ref();
+            match (primitive.get(&gltf::Semantic::TexCoords(set)), image) {
+                (Some(a), Some(image)) => {
+                    let transform = uv_transform(info.texture_transform());
+                    let uvs: Vec<Vec2> = self
+                        .read_per_vertex::<2>(&a, "TEXCOORD", count)?
+                        .into_iter()
+                        .map(|uv| transform.transform_point2(Vec2::from_array(uv)))
+                        .collect();
+                    let baked = bake(image, positions, &uvs, tris);
+                    for (out, c) in colors.iter_mut().zip(baked) {
+                        *out *= c;
+                    }
+                    let index = info.texture().source().index();
+                    texture_here = *self.texture_index.entry(index).or_insert_with(|| {
+                        self.mesh.textures.push(image.file.clone());
+                        self.mesh.textures.len() as u32 - 1
+                    });
+                    uvs_here = uvs;
+                }
+                (None, Some(_)) => self.notes.push(format!(
+                    "{what}'s base colour texture reads TEXCOORD_{set}, which it lacks: left out"
+                )),
+                _ => {}
+            }
+        }
+        Ok((colors, uvs_here, texture_here))
     }
 
     /// `accessor` as `N`-component floats, normalized integers scaled to [0, 1] or [−1, 1] as the

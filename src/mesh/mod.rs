@@ -15,7 +15,7 @@ mod ply_binary;
 pub use clean::{CleanOptions, CleanReport, clean};
 pub use error::{InputError, Location};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::ops::Range;
 use std::path::Path;
 
@@ -48,7 +48,19 @@ pub struct Mesh {
     /// test takes it as it is instead of guessing from the sign of the volume. PLY files say so with
     /// a header comment starting with [`ONE_SIDED_COMMENT`].
     pub one_sided: bool,
+    /// Texture coordinates into each vertex's base colour texture (glTF `TEXCOORD_0`, with
+    /// `KHR_texture_transform` applied), one per position.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Each vertex's base colour texture: an index into [`Mesh::textures`], or [`NO_TEXTURE`].
+    /// Vertices on a border between textures are split (the clean-up welds only vertices with the
+    /// same texture and coordinates), so a vertex has one.
+    pub texture_of: Option<Vec<u32>>,
+    /// Base colour textures, as their image files' bytes (PNG or JPEG, sRGB).
+    pub textures: Vec<std::sync::Arc<Vec<u8>>>,
 }
+
+/// [`Mesh::texture_of`] of a vertex with no texture.
+pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// The PLY header comment that marks a [`Mesh::one_sided`] mesh.
 pub const ONE_SIDED_COMMENT: &str = "one-sided";
@@ -97,6 +109,9 @@ impl Mesh {
             parts,
             unreferenced_vertices: 0,
             one_sided: false,
+            uvs: None,
+            texture_of: None,
+            textures: Vec::new(),
         }
     }
 

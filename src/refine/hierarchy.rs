@@ -26,6 +26,11 @@ pub struct Hierarchy {
     pub normal: Vec<[i16; 2]>,
     /// Linear RGB of every node as RGBA8; empty when the model has no colours.
     pub color: Vec<[u8; 4]>,
+    /// Every node's texture coordinates and texture (`[u, v, texture]`, the texture as a float,
+    /// −1 for none); empty when the model has no textures.
+    pub uv_texture: Vec<[f32; 3]>,
+    /// The base colour textures' image files (PNG or JPEG, sRGB).
+    pub textures: Vec<std::sync::Arc<Vec<u8>>>,
     /// What the view tests read of an internal node `k + leaf_count`, together (see [`Bounds`]).
     pub internal_bounds: Vec<Bounds>,
     /// What a split or unify of internal node `k + leaf_count` reads, in one cache line's quarter (see
@@ -96,11 +101,9 @@ impl Hierarchy {
         let n_leaves = n;
         let count = tree.nodes.len();
         let old = &tree.nodes;
-
         let (new_id, old_of) = depth_first_ids(tree);
         let node = |id: u32| &old[old_of[id as usize] as usize];
         let renumber = |u: u32| if u == NIL { NIL } else { new_id[u as usize] };
-
         let position: Vec<Vec3> = (0..count as u32).map(|u| node(u).position()).collect();
         let parent: Vec<u32> = (0..count as u32)
             .map(|u| renumber(node(u).parent))
@@ -108,11 +111,8 @@ impl Hierarchy {
         let normal = (0..count as u32)
             .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
             .collect();
-        let color = if tree.has_colors {
-            (0..count as u32).map(|u| display_color(node(u))).collect()
-        } else {
-            Vec::new()
-        };
+        let color = colors_of(tree, &old_of);
+        let (uv_texture, textures) = appearance_of(tree, &old_of);
         let internal: Vec<&crate::vtree::Node> = (n..count as u32).map(node).collect();
         let internal_children: Vec<[u32; 2]> =
             internal.iter().map(|x| x.children.map(renumber)).collect();
@@ -192,7 +192,6 @@ impl Hierarchy {
             internal_nodes[k + 1].appear += internal_nodes[k].appear;
         }
         let triangles = keyed.into_iter().map(|(_, t)| t).collect();
-
         let flip = if inward { -1.0 } else { 1.0 };
         let internal_cone: Vec<([i16; 2], f32)> =
             internal.iter().map(|x| runtime_cone(x, flip)).collect();
@@ -203,6 +202,8 @@ impl Hierarchy {
             parent,
             normal,
             color,
+            uv_texture,
+            textures,
             internal_bounds: internal
                 .iter()
                 .enumerate()
@@ -512,6 +513,43 @@ fn runtime_cone(x: &crate::vtree::Node, flip: f32) -> ([i16; 2], f32) {
 }
 
 /// A node's colour as 8-bit RGBA.
+/// Every node's `[u, v, texture]` in the hierarchy's order (`old_of`: the tree's id of each),
+/// the texture as a float, −1 for none, and the textures; empty for an untextured tree.
+#[allow(clippy::type_complexity)]
+fn appearance_of(
+    tree: &VertexTree,
+    old_of: &[u32],
+) -> (Vec<[f32; 3]>, Vec<std::sync::Arc<Vec<u8>>>) {
+    let Some(a) = &tree.appearance else {
+        return (Vec::new(), Vec::new());
+    };
+    let uv_texture = old_of
+        .iter()
+        .map(|&old| {
+            let old = old as usize;
+            let t = a.texture_of[old];
+            let t = if t == crate::mesh::NO_TEXTURE {
+                -1.0
+            } else {
+                t as f32
+            };
+            [a.uvs[old][0], a.uvs[old][1], t]
+        })
+        .collect();
+    (uv_texture, a.textures.clone())
+}
+
+/// Every node's display colour in the hierarchy's order; empty for a tree without colours.
+fn colors_of(tree: &VertexTree, old_of: &[u32]) -> Vec<[u8; 4]> {
+    if !tree.has_colors {
+        return Vec::new();
+    }
+    old_of
+        .iter()
+        .map(|&old| display_color(&tree.nodes[old as usize]))
+        .collect()
+}
+
 fn display_color(node: &crate::vtree::Node) -> [u8; 4] {
     let c = node
         .color

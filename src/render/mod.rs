@@ -7,6 +7,7 @@ pub mod headless;
 pub mod image_diff;
 pub mod job;
 pub mod renderer;
+pub mod textures;
 
 pub use headless::{Gpu, Offscreen};
 pub use renderer::{ColorBy, DrawOptions, Renderer, Target, UploadStats, WireMode};

@@ -71,7 +71,10 @@ struct Model {
     normals: wgpu::Buffer,
     colors: wgpu::Buffer,
     debug: wgpu::Buffer,
+    /// `[u, v, texture]` per node (texture −1: none; all −1 for an untextured model).
+    uv_texture: wgpu::Buffer,
     has_colors: bool,
+    has_textures: bool,
     /// A one-sided mesh with colours: lighting baked in, drawn unlit by `ColorBy::Auto`.
     baked: bool,
     /// Faces are drawn from their front only (a lit room seen from outside shows its inside).
@@ -96,16 +99,19 @@ pub struct Renderer {
     /// The wireframe where lines cannot be drawn: barycentric edges from pulled vertices.
     barycentric: Option<(wgpu::RenderPipeline, wgpu::BindGroupLayout)>,
     globals: wgpu::Buffer,
+    bind_layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
     bind_group: wgpu::BindGroup,
     model: Option<Model>,
     timer: Option<Timer>,
 }
 
-fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 4] {
+fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 5] {
     const POSITION: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
     const NORMAL: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![1 => Snorm16x2];
     const COLOR: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Unorm8x4];
     const DEBUG: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![3 => Float32x2];
+    const UV_TEXTURE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![4 => Float32x3];
     let layout =
         |stride: u64, attributes: &'static [wgpu::VertexAttribute]| wgpu::VertexBufferLayout {
             array_stride: stride,
@@ -117,6 +123,7 @@ fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 4] {
         layout(4, &NORMAL),
         layout(4, &COLOR),
         layout(8, &DEBUG),
+        layout(12, &UV_TEXTURE),
     ]
 }
 
@@ -156,19 +163,7 @@ impl Renderer {
             label: Some("mesh.wgsl"),
             source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
         });
-        let bind_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("globals"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
+        let bind_layout = globals_layout(device);
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("mesh"),
             bind_group_layouts: &[Some(&bind_layout)],
@@ -242,14 +237,9 @@ impl Renderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("globals"),
-            layout: &bind_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            }],
-        });
+        let sampler = super::textures::sampler(device);
+        let none = super::textures::placeholder(device);
+        let bind_group = globals_bind_group(device, &bind_layout, &globals, &none, &sampler);
         let timer = Timer::new(device);
         let chunk_bytes = device.limits().max_buffer_size.min(MAX_CHUNK_BYTES);
         Renderer {
@@ -258,6 +248,8 @@ impl Renderer {
             wire,
             barycentric,
             globals,
+            bind_layout,
+            sampler,
             bind_group,
             model: None,
             timer,
@@ -302,6 +294,25 @@ impl Renderer {
                 depth[u as usize] = depth[p as usize] + 1.0;
             }
         }
+        let has_textures = !h.textures.is_empty() && !h.uv_texture.is_empty();
+        let uv_texture: Vec<[f32; 3]> = if has_textures {
+            h.uv_texture.clone()
+        } else {
+            vec![[0.0, 0.0, -1.0]; h.position.len()]
+        };
+        // Textures upload once per model; the bind group then points at them.
+        let view = if has_textures {
+            super::textures::upload(device, queue, &h.textures)
+        } else {
+            super::textures::placeholder(device)
+        };
+        self.bind_group = globals_bind_group(
+            device,
+            &self.bind_layout,
+            &self.globals,
+            &view,
+            &self.sampler,
+        );
         let debug: Vec<Debug> = (0..h.node_count())
             .map(|u| Debug {
                 error: h.error(u),
@@ -320,7 +331,9 @@ impl Renderer {
             normals: vertex("normals", bytemuck::cast_slice(&h.normal)),
             colors: vertex("colors", bytemuck::cast_slice(&colors)),
             debug: vertex("debug", bytemuck::cast_slice(&debug)),
+            uv_texture: vertex("uv_texture", bytemuck::cast_slice(&uv_texture)),
             has_colors,
+            has_textures,
             baked: has_colors && h.one_sided,
             one_sided: h.one_sided,
             indices: Indices::new(device, self.chunk_triangles),
@@ -400,13 +413,17 @@ impl Renderer {
         let light = (-forward + camera.orientation * Vec3::new(-0.4, 0.6, 0.0)).normalize();
         let has_colors = self.model.as_ref().is_some_and(|m| m.has_colors);
         let baked = self.model.as_ref().is_some_and(|m| m.baked);
+        let textured = self.model.as_ref().is_some_and(|m| m.has_textures);
         let mode = match options.color_by {
+            ColorBy::Auto if textured => 5,
             ColorBy::Auto if baked => 4,
             ColorBy::Auto if has_colors => 1,
             ColorBy::Auto | ColorBy::Shaded => 0,
             ColorBy::Depth => 2,
             ColorBy::Error => 3,
             ColorBy::Baked => 4,
+            ColorBy::Texture => 5,
+            ColorBy::Uv => 6,
         };
         let globals = Globals {
             clip_from_world: camera.clip_from_world().to_cols_array_2d(),
@@ -473,6 +490,7 @@ impl Renderer {
         pass.set_vertex_buffer(1, model.normals.slice(..));
         pass.set_vertex_buffer(2, model.colors.slice(..));
         pass.set_vertex_buffer(3, model.debug.slice(..));
+        pass.set_vertex_buffer(4, model.uv_texture.slice(..));
         pass.set_pipeline(&self.fill);
         model.indices.draw(&mut pass, model.triangles as u64);
         if options.wireframe {
@@ -701,4 +719,67 @@ impl Timer {
                 period_ns: 1.0,
             })
     }
+}
+
+/// The mesh pass's bind group: the globals, the model's texture array and the sampler.
+fn globals_bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    globals: &wgpu::Buffer,
+    textures: &wgpu::TextureView,
+    sampler: &wgpu::Sampler,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("globals"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(textures),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            },
+        ],
+    })
+}
+
+/// The mesh pass's bind group layout: the globals (0), the texture array (1) and its sampler (2).
+fn globals_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("globals"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    })
 }

@@ -81,6 +81,20 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
         triangles,
         unreferenced_vertices: 0,
         one_sided: tree.one_sided,
+        uvs: tree.appearance.as_ref().map(|a| {
+            nodes
+                .iter()
+                .map(|&u| glam::Vec2::from_array(a.uvs[u as usize]))
+                .collect()
+        }),
+        texture_of: tree
+            .appearance
+            .as_ref()
+            .map(|a| nodes.iter().map(|&u| a.texture_of[u as usize]).collect()),
+        textures: tree
+            .appearance
+            .as_ref()
+            .map_or_else(Vec::new, |a| a.textures.clone()),
     };
     Cut {
         nodes,

@@ -22,6 +22,11 @@ const FLAG_NORMALS: u32 = 2;
 const FLAG_ONE_SIDED: u32 = 4;
 
 const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
+/// Sections a tree may have or not (readers before them skip them): a textured tree's per-node
+/// texture coordinates and texture (`u`, `v` as f32, the texture as u32), and its textures (a
+/// count, then each as a u64 length and its image file's bytes).
+const OPTIONAL: [[u8; 4]; 2] = [*b"UVTX", *b"TEXS"];
+const UVTX_LEN: u64 = 12;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FormatErrorKind {
@@ -81,20 +86,36 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
     }
     // The in-memory layouts are little-endian Pod on every platform vunify targets.
     const { assert!(cfg!(target_endian = "little")) };
-    let sections: [&[u8]; 5] = [
+    let mut sections: Vec<&[u8]> = vec![
         &meta,
         bytemuck::cast_slice(&tree.nodes),
         bytemuck::cast_slice(&tree.triangles),
         bytemuck::cast_slice(&tree.vanish_offsets),
         &parts,
     ];
+    let mut tags: Vec<[u8; 4]> = SECTIONS.to_vec();
+    let (mut uvtx, mut texs) = (Vec::new(), Vec::new());
+    if let Some(a) = &tree.appearance {
+        for (uv, t) in a.uvs.iter().zip(&a.texture_of) {
+            uvtx.extend_from_slice(&uv[0].to_le_bytes());
+            uvtx.extend_from_slice(&uv[1].to_le_bytes());
+            uvtx.extend_from_slice(&t.to_le_bytes());
+        }
+        texs.extend_from_slice(&(a.textures.len() as u32).to_le_bytes());
+        for t in &a.textures {
+            texs.extend_from_slice(&(t.len() as u64).to_le_bytes());
+            texs.extend_from_slice(t);
+        }
+        sections.extend([&uvtx[..], &texs[..]]);
+        tags.extend(OPTIONAL);
+    }
     let table_end = HEADER + TABLE_ENTRY * sections.len();
     let mut head = Vec::with_capacity(table_end + 4);
     head.extend_from_slice(&MAGIC);
     head.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     head.extend_from_slice(&(sections.len() as u32).to_le_bytes());
     let mut offset = (table_end + 4) as u64;
-    for (tag, s) in SECTIONS.iter().zip(sections) {
+    for (tag, s) in tags.iter().zip(&sections) {
         head.extend_from_slice(tag);
         head.extend_from_slice(&0u32.to_le_bytes());
         head.extend_from_slice(&offset.to_le_bytes());
@@ -157,7 +178,8 @@ impl Cursor<'_> {
 /// Parses and validates `.vtree` bytes; `path` names the file in errors.
 pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
     let fail = Fail { path };
-    let [meta, node_bytes, tri_bytes, off_bytes, part_bytes] = sections(bytes, &fail)?;
+    let ([meta, node_bytes, tri_bytes, off_bytes, part_bytes], [uvtx, texs]) =
+        sections(bytes, &fail)?;
     if meta.len() != META_LEN {
         return Err(fail.at(
             None,
@@ -202,9 +224,72 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         has_normals: flags & FLAG_NORMALS != 0,
         one_sided: flags & FLAG_ONE_SIDED != 0,
         parts: part_list(part_bytes, parts, &fail)?,
+        appearance: match (uvtx, texs) {
+            (Some(uvtx), Some(texs)) => Some(appearance(uvtx, texs, nodes, &fail)?),
+            (None, None) => None,
+            _ => return Err(fail.invalid("UVTX and TEXS come together".into())),
+        },
     };
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
+}
+
+/// A textured tree's appearance sections, checked: one entry per node, each texture index in
+/// range (or none), and the textures' lengths within their section.
+fn appearance(
+    uvtx: &[u8],
+    texs: &[u8],
+    nodes: u32,
+    fail: &Fail,
+) -> Result<super::Appearance, FormatError> {
+    if uvtx.len() as u64 != nodes as u64 * UVTX_LEN {
+        return Err(fail.invalid(format!(
+            "section UVTX is {} bytes, but META's counts need {}",
+            uvtx.len(),
+            nodes as u64 * UVTX_LEN
+        )));
+    }
+    let c = Cursor { bytes: texs };
+    if texs.len() < 4 {
+        return Err(fail.invalid("section TEXS is shorter than its count".into()));
+    }
+    let count = c.u32(0) as usize;
+    let mut textures = Vec::new();
+    let mut at = 4usize;
+    for k in 0..count {
+        let length = (at + 8 <= texs.len())
+            .then(|| c.u64(at))
+            .and_then(|l| usize::try_from(l).ok())
+            .filter(|&l| at + 8 + l <= texs.len())
+            .ok_or_else(|| fail.invalid(format!("texture {k} runs past section TEXS")))?;
+        textures.push(std::sync::Arc::new(texs[at + 8..at + 8 + length].to_vec()));
+        at += 8 + length;
+    }
+    if at != texs.len() {
+        return Err(fail.invalid(format!("{} bytes after the last texture", texs.len() - at)));
+    }
+    let u = Cursor { bytes: uvtx };
+    let mut uvs = Vec::with_capacity(nodes as usize);
+    let mut texture_of = Vec::with_capacity(nodes as usize);
+    for i in 0..nodes as usize {
+        let at = i * UVTX_LEN as usize;
+        let uv = [u.u32(at), u.u32(at + 4)].map(f32::from_bits);
+        let t = u.u32(at + 8);
+        if !uv.iter().all(|x| x.is_finite())
+            || (t as usize >= count && t != crate::mesh::NO_TEXTURE)
+        {
+            return Err(fail.invalid(format!(
+                "node {i}'s texture coordinates or texture are invalid"
+            )));
+        }
+        uvs.push(uv);
+        texture_of.push(t);
+    }
+    Ok(super::Appearance {
+        uvs,
+        texture_of,
+        textures,
+    })
 }
 
 /// Builds the errors of one file.
@@ -229,8 +314,12 @@ impl Fail<'_> {
 
 /// The header, the section table and the sections, each checked (magic, version, checksums, one
 /// section after another to the end of the file); returns the five known sections' bodies in
-/// [`SECTIONS`] order.
-fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<[&'b [u8]; 5], FormatError> {
+/// [`SECTIONS`] order, and the optional ones' in [`OPTIONAL`] order.
+#[allow(clippy::type_complexity)]
+fn sections<'b>(
+    bytes: &'b [u8],
+    fail: &Fail,
+) -> Result<([&'b [u8]; 5], [Option<&'b [u8]>; 2]), FormatError> {
     let len = bytes.len() as u64;
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
         return Err(fail.at(
@@ -273,6 +362,7 @@ fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<[&'b [u8]; 5], FormatErr
     }
     let mut expected = (table_end + 4) as u64;
     let mut found: [Option<&[u8]>; 5] = [None; 5];
+    let mut optional: [Option<&[u8]>; 2] = [None; 2];
     for i in 0..count as usize {
         let at = HEADER + i * TABLE_ENTRY;
         let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
@@ -298,7 +388,15 @@ fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<[&'b [u8]; 5], FormatErr
                 format!("section {name} is corrupt (checksum mismatch)"),
             ));
         }
-        if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
+        if let Some(k) = OPTIONAL.iter().position(|t| *t == tag) {
+            if optional[k].replace(body).is_some() {
+                return Err(fail.at(
+                    Some(at as u64),
+                    FormatErrorKind::Invalid,
+                    format!("section {name} appears twice"),
+                ));
+            }
+        } else if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
             if found[k].is_some() {
                 return Err(fail.at(
                     Some(at as u64),
@@ -326,7 +424,7 @@ fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<[&'b [u8]; 5], FormatErr
             ))
         })?;
     }
-    Ok(out)
+    Ok((out, optional))
 }
 
 /// The PART section: `count` parts, each a triangle count, a name length and a UTF-8 name.

@@ -84,6 +84,19 @@ pub struct VertexTree {
     /// From [`crate::mesh::Mesh::one_sided`]: the winding is meant, never flipped.
     pub one_sided: bool,
     pub parts: Vec<PartInfo>,
+    /// Texture coordinates and base colour textures, when the input had them.
+    pub appearance: Option<Appearance>,
+}
+
+/// What a textured tree carries besides its nodes: per node, texture coordinates and a texture
+/// (see `build::appearance`); and the textures' image files.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Appearance {
+    pub uvs: Vec<[f32; 2]>,
+    /// An index into `textures`, or [`crate::mesh::NO_TEXTURE`].
+    pub texture_of: Vec<u32>,
+    /// Base colour textures, as their image files' bytes (PNG or JPEG, sRGB).
+    pub textures: Vec<std::sync::Arc<Vec<u8>>>,
 }
 
 /// Relative widening of computed bounds, so that float rounding in the distances never lets a point

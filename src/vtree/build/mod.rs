@@ -426,6 +426,16 @@ fn build_unit(
     } else {
         Vec::new()
     };
+    // A non-edge merge never joins two texture charts: it would smear one texture over the other
+    // (vertices at a UV seam are two, at one place; docs/APPEARANCE.md).
+    let mut close = close;
+    if let Some(uvs) = &mesh.uvs {
+        let texture = |v: u32| mesh.texture_of.as_ref().map_or(0, |t| t[v as usize]);
+        close.retain(|&(a, b)| {
+            texture(a) == texture(b)
+                && uvs[a as usize].distance(uvs[b as usize]) <= CHART_UV_DISTANCE
+        });
+    }
     stats.proximity_pairs = close.len() as u32;
     stats.phases.features = features_secs;
     stats.phases.close_pairs = clock.elapsed().as_secs_f64();
@@ -540,6 +550,7 @@ impl Builder<'_> {
             has_colors: mesh.colors.is_some(),
             has_normals: mesh.normals.is_some(),
             one_sided: mesh.one_sided,
+            appearance: None,
             parts: mesh
                 .parts
                 .iter()
@@ -549,10 +560,55 @@ impl Builder<'_> {
                 })
                 .collect(),
         };
+        let mut tree = tree;
+        tree.appearance = appearance(mesh, &tree.nodes);
         stats.nodes = tree.nodes.len() as u32;
         stats.depth = tree.depth();
         (tree, stats)
     }
+}
+
+/// Two vertices whose texture coordinates lie further apart than this are on different texture
+/// charts (or a chart's far sides): no non-edge merge joins them.
+const CHART_UV_DISTANCE: f32 = 0.05;
+
+/// Each node's texture coordinates and texture, when the mesh has them: a leaf's are its vertex's;
+/// an internal node's, its children's mean weighted by their leaves (within one chart, a mean of
+/// coordinates is a point of it), and the texture of the child with more leaves (edge merges keep
+/// to one texture: its borders are split vertices).
+fn appearance(mesh: &Mesh, nodes: &[Node]) -> Option<super::Appearance> {
+    let uvs = mesh.uvs.as_ref()?;
+    let n = mesh.positions.len();
+    let mut uv: Vec<[f32; 2]> = Vec::with_capacity(nodes.len());
+    let mut texture: Vec<u32> = Vec::with_capacity(nodes.len());
+    let mut leaves: Vec<u32> = Vec::with_capacity(nodes.len());
+    for v in 0..n {
+        uv.push(uvs[v].to_array());
+        texture.push(
+            mesh.texture_of
+                .as_ref()
+                .map_or(crate::mesh::NO_TEXTURE, |t| t[v]),
+        );
+        leaves.push(1);
+    }
+    for node in &nodes[n..] {
+        let [a, b] = node.children.map(|c| c as usize);
+        let (wa, wb) = (leaves[a] as f32, leaves[b] as f32);
+        let mean =
+            (glam::Vec2::from_array(uv[a]) * wa + glam::Vec2::from_array(uv[b]) * wb) / (wa + wb);
+        uv.push(mean.to_array());
+        texture.push(if leaves[a] >= leaves[b] {
+            texture[a]
+        } else {
+            texture[b]
+        });
+        leaves.push(leaves[a] + leaves[b]);
+    }
+    Some(super::Appearance {
+        uvs: uv,
+        texture_of: texture,
+        textures: mesh.textures.clone(),
+    })
 }
 
 /// An input colour as the builder reads it: colours are meant to lie in [0, 1], and one beyond (a
