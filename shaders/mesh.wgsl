@@ -92,10 +92,11 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
         return vec4<f32>(in.color.rgb, 1.0);
     }
     var base = in.color.rgb;
-    // Sampled outside any branch: derivatives for the mip level need uniform control flow.
-    let texel = textureSample(textures, texture_sampler, in.uv, max(in.layer, 0)).rgb;
-    if (g.modes.x == 5u && in.layer >= 0) {
-        base = texel;
+    if (g.modes.x == 5u) {
+        // A branch on a uniform keeps control flow uniform, as the mip level's derivatives need;
+        // the other modes pay nothing for the texture.
+        let texel = textureSample(textures, texture_sampler, in.uv, max(in.layer, 0)).rgb;
+        base = select(base, texel, in.layer >= 0);
     } else if (g.modes.x == 6u) {
         let cell = floor(in.uv * 8.0);
         let odd = (i32(cell.x) + i32(cell.y)) & 1;
