@@ -606,3 +606,61 @@ fn bad_scenes_say_what_is_wrong() {
         "{out:?}"
     );
 }
+
+/// `extract --lod-chain` writes one glTF with a mesh and a scene per level, the finest the
+/// default, each level's ratio, triangles, error and bound in its `extras`, coarser levels with
+/// fewer triangles and no smaller error; a ratio out of range or a non-glTF output is refused.
+#[test]
+fn extract_a_lod_chain() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let tree = tmp("chain.vtree");
+    let t = tree.to_str().unwrap();
+    ok(&vunify(&["build", model, "-o", t]));
+    let out = tmp("chain.glb");
+    let o = out.to_str().unwrap();
+    ok(&vunify(&[
+        "extract",
+        t,
+        "--lod-chain",
+        "0.5,0.25,0.1,0.01",
+        "-o",
+        o,
+    ]));
+    let glb = std::fs::read(&out).unwrap();
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    assert_eq!(doc["scene"], 0);
+    let scenes = doc["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 4);
+    assert_eq!(doc["meshes"].as_array().unwrap().len(), 4);
+    let mut last = (u64::MAX, 0.0);
+    for (k, (scene, ratio)) in scenes.iter().zip([0.5, 0.25, 0.1, 0.01]).enumerate() {
+        let extras = &scene["extras"];
+        assert_eq!(extras["ratio"], ratio, "LOD{k}");
+        assert_eq!(doc["meshes"][k]["extras"], *extras);
+        let triangles = extras["triangles"].as_u64().unwrap();
+        let want = (13546.0 * ratio) as u64;
+        assert!(
+            triangles <= want + 1 && triangles + want / 20 >= want,
+            "LOD{k}: {triangles}"
+        );
+        let error = extras["error"].as_f64().unwrap();
+        assert!(triangles < last.0 && error >= last.1, "LOD{k}");
+        assert!(extras["bound"].as_f64().unwrap() >= error, "LOD{k}");
+        last = (triangles, error);
+    }
+    let bad = vunify(&["extract", t, "--lod-chain", "0.5,2", "-o", o]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("got 2"));
+    let obj = tmp("chain.obj");
+    let bad = vunify(&[
+        "extract",
+        t,
+        "--lod-chain",
+        "0.5",
+        "-o",
+        obj.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains(".glb or .gltf"));
+    assert!(!obj.exists());
+}

@@ -150,3 +150,73 @@ proptest! {
         prop_assert!(vtree::read_bytes(&bad, Path::new("r")).is_err());
     }
 }
+
+/// A tree keeps the input's materials and each node's (a leaf's is its vertex's) through its
+/// bytes; every corrupted byte of the MATL section is caught; a tree written without them reads
+/// as one without materials.
+#[test]
+fn materials_round_trip() {
+    use vunify::mesh::{AlphaMode, Material};
+    let mut mesh = scene(
+        &[grid(2, 2, |x, y| 0.1 * x * y), grid(1, 1, |_, _| 0.0)],
+        3.0,
+    );
+    // The second grid's vertices come after the first's: material 1.
+    let first_part_vertices = mesh.triangles[..mesh.parts[0].triangles.end as usize]
+        .iter()
+        .flatten()
+        .max()
+        .map_or(0, |&v| v + 1);
+    mesh.material_of = Some(
+        (0..mesh.positions.len() as u32)
+            .map(|v| u32::from(v >= first_part_vertices))
+            .collect(),
+    );
+    mesh.materials = vec![
+        Material {
+            name: "steel".into(),
+            metallic_factor: 0.9,
+            ..Material::default()
+        },
+        Material {
+            name: "glass".into(),
+            alpha_mode: AlphaMode::Blend,
+            base_color_factor: [0.8, 0.9, 1.0, 0.3],
+            double_sided: true,
+            ..Material::default()
+        },
+    ];
+    let tree = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
+        .unwrap()
+        .0;
+    let m = tree.materials.as_ref().expect("materials kept");
+    assert_eq!(m.list, mesh.materials);
+    assert_eq!(m.of.len(), tree.nodes.len());
+    assert_eq!(
+        &m.of[..mesh.positions.len()],
+        &mesh.material_of.as_ref().unwrap()[..]
+    );
+    let bytes = vtree::to_bytes(&tree);
+    assert_eq!(
+        vtree::read_bytes(&bytes, Path::new("m.vtree")).unwrap(),
+        tree
+    );
+    let plain = VertexTree {
+        materials: None,
+        ..tree.clone()
+    };
+    let plain_bytes = vtree::to_bytes(&plain);
+    assert_eq!(
+        vtree::read_bytes(&plain_bytes, Path::new("p.vtree")).unwrap(),
+        plain
+    );
+    // The MATL section is the last: each of its bytes flipped is an error.
+    for i in plain_bytes.len()..bytes.len() {
+        let mut bad = bytes.clone();
+        bad[i] ^= 0x5A;
+        assert!(
+            vtree::read_bytes(&bad, Path::new("bad.vtree")).is_err(),
+            "byte {i}"
+        );
+    }
+}

@@ -266,6 +266,110 @@ fn square() -> vunify::mesh::Mesh {
     }
 }
 
+/// A one-colour PNG of 2 × 2 pixels.
+fn png(rgb: [u8; 3]) -> std::sync::Arc<Vec<u8>> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::RgbImage::from_pixel(2, 2, image::Rgb(rgb))
+        .write_to(&mut out, image::ImageFormat::Png)
+        .unwrap();
+    std::sync::Arc::new(out.into_inner())
+}
+
+/// [`square`] with two materials, one a triangle:
+///
+/// ```text
+///   2----3    lower left (0 1 2): "leaf", a red texture, a normal map, alpha mask at 0.3
+///   | \  |    upper right (2 1 3): "paint", blue, double-sided, vertex colours
+///   0----1    (corners 1 and 2 are two vertices each: a material border is a seam)
+/// ```
+fn two_materials() -> vunify::mesh::Mesh {
+    use vunify::mesh::{AlphaMode, Material};
+    let p = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)];
+    vunify::mesh::Mesh {
+        positions: vec![p[0], p[1], p[2], p[2], p[1], p[3]],
+        colors: Some(vec![
+            Vec3::X,
+            Vec3::X,
+            Vec3::X,
+            Vec3::Z,
+            Vec3::Z * 0.5,
+            Vec3::Z,
+        ]),
+        normals: Some(vec![Vec3::Z; 6]),
+        triangles: vec![[0, 1, 2], [3, 4, 5]],
+        parts: vec![vunify::mesh::Part {
+            name: "square".into(),
+            triangles: 0..2,
+        }],
+        uvs: Some(vec![
+            glam::Vec2::ZERO,
+            glam::Vec2::X,
+            glam::Vec2::Y,
+            glam::Vec2::ZERO,
+            glam::Vec2::ZERO,
+            glam::Vec2::ZERO,
+        ]),
+        texture_of: Some(vec![0, 0, 0, u32::MAX, u32::MAX, u32::MAX]),
+        textures: vec![png([255, 0, 0]), png([128, 128, 255])],
+        materials: vec![
+            Material {
+                name: "leaf".into(),
+                base_color_texture: Some(0),
+                normal_texture: Some(1),
+                alpha_mode: AlphaMode::Mask,
+                alpha_cutoff: 0.3,
+                ..Material::default()
+            },
+            Material {
+                name: "paint".into(),
+                base_color_factor: [0.0, 0.0, 1.0, 1.0],
+                double_sided: true,
+                vertex_colors: true,
+                ..Material::default()
+            },
+        ],
+        material_of: Some(vec![0, 0, 0, 1, 1, 1]),
+        ..Default::default()
+    }
+}
+
+/// Materials, textures and texture coordinates round-trip through `.glb` and `.gltf` (images
+/// beside it): each triangle keeps its material, the mask and double-sidedness, the normal map,
+/// and the vertex colours of the untextured one.
+#[test]
+fn materials_and_textures_round_trip() {
+    let dir = std::env::temp_dir().join(format!("vunify-gltf-mat-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let m = two_materials();
+    for name in ["m.glb", "m.gltf"] {
+        let file = dir.join(name);
+        vunify::export::write_mesh(&m, &file).unwrap();
+        let back = parse(&std::fs::read(&file).unwrap(), Format::Gltf, &file).unwrap();
+        assert_eq!(back.materials.len(), 2, "{name}");
+        let of = back.material_of.as_ref().unwrap();
+        let leaf = &back.materials[of[back.triangles[0][0] as usize] as usize];
+        let paint = &back.materials[of[back.triangles[1][0] as usize] as usize];
+        assert_eq!(leaf.name, "leaf");
+        assert_eq!(leaf.alpha_mode, vunify::mesh::AlphaMode::Mask);
+        assert_eq!(leaf.alpha_cutoff, 0.3);
+        assert!(leaf.base_color_texture.is_some() && leaf.normal_texture.is_some());
+        assert_eq!(paint.name, "paint");
+        assert!(paint.double_sided && paint.vertex_colors);
+        assert_eq!(back.textures.len(), 2, "{name}");
+        assert_eq!(
+            back.uvs.as_ref().unwrap()[..3],
+            m.uvs.as_ref().unwrap()[..3]
+        );
+        // The red texture's mean; the paint's colours as they were (factor × COLOR_0).
+        let colors = back.colors.as_ref().unwrap();
+        for (v, want) in m.colors.as_ref().unwrap().iter().enumerate() {
+            assert!(colors[v].distance(*want) < 1e-5, "{name}: vertex {v}");
+        }
+    }
+    assert!(dir.join("m_image0.png").exists() && dir.join("m_image1.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `.glb` and `.gltf` (+ `.bin`) written by vunify read back as they were, and `.gltf.xz` is
 /// refused rather than half-written.
 #[test]
@@ -315,10 +419,35 @@ fn gltf_output_validates() {
         normals: Some(vec![Vec3::Z, Vec3::ZERO, Vec3::Z, Vec3::Z]),
         ..square()
     });
-    for (i, m) in meshes.iter().enumerate() {
+    meshes.push(two_materials());
+    // Static levels of the shared textured models, materials and maps carried.
+    if let Some(models) = models_dir() {
+        for file in [
+            "textured/Avocado/Avocado.gltf",
+            "textured/WaterBottle/WaterBottle.glb",
+            "textured/DeccerCubesTextured/SM_Deccer_Cubes_Textured.glb",
+        ] {
+            let (m, _) = vunify::mesh::load(&models.join(file), &CleanOptions::default()).unwrap();
+            let (tree, _) =
+                vunify::vtree::build(&m, &vunify::vtree::BuildOptions::default(), &mut |_, _| {})
+                    .unwrap();
+            let keep = m.triangle_count() as u32 / 10;
+            let level = vunify::vtree::cut_at_triangles(&tree, keep).mesh;
+            assert_eq!(level.materials, m.materials, "{file}");
+            meshes.push(level);
+        }
+    }
+    // The last: a chain of levels (`extract --lod-chain`), the first two meshes' materials shared.
+    let chain = meshes.len();
+    for i in 0..=chain {
         for ext in ["glb", "gltf"] {
             let file = dir.join(format!("m{i}.{ext}"));
-            vunify::export::write_mesh(m, &file).unwrap();
+            if i < chain {
+                vunify::export::write_mesh(&meshes[i], &file).unwrap();
+            } else {
+                let levels = [&meshes[2], &meshes[2]].map(|m| (m, serde_json::json!({"ratio": 1})));
+                vunify::export::write_chain(&levels, &file).unwrap();
+            }
             let out = std::process::Command::new("node")
                 .arg(&script)
                 .arg(&file)
@@ -333,5 +462,86 @@ fn gltf_output_validates() {
             );
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A textured OBJ with its MTL library and image beside it:
+///
+/// ```text
+///   3----2    lower right (0 1 2): "red", map_Kd red.png
+///   | \  |    upper left (0 2 3): "glass", Kd 0 0 1, d 0.5, no texture
+///   0----1    vt v counts from the image's bottom: read as 1 − v
+/// ```
+#[test]
+fn textured_obj_reads_materials_and_coordinates() {
+    let dir = std::env::temp_dir().join(format!("vunify-obj-mtl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("red.png"), &*png([255, 0, 0])).unwrap();
+    std::fs::write(
+        dir.join("q.mtl"),
+        "newmtl red\nKd 1 1 1\nmap_Kd red.png\n\nnewmtl glass\nKd 0 0 1\nd 0.5\n",
+    )
+    .unwrap();
+    let obj = "mtllib q.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n\
+               usemtl red\nf 1/1 2/2 3/3\nusemtl glass\nf 1 3 4\n";
+    std::fs::write(dir.join("q.obj"), obj).unwrap();
+    let (m, report) = vunify::mesh::load(&dir.join("q.obj"), &CleanOptions::default()).unwrap();
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+    assert_eq!(m.triangle_count(), 2);
+    let of = m.material_of.as_ref().unwrap();
+    let red = &m.materials[of[m.triangles[0][0] as usize] as usize];
+    let glass = &m.materials[of[m.triangles[1][0] as usize] as usize];
+    assert_eq!(red.name, "red");
+    assert!(red.base_color_texture.is_some());
+    assert_eq!(glass.name, "glass");
+    assert_eq!(glass.base_color_factor, [0.0, 0.0, 1.0, 0.5]);
+    assert_eq!(glass.alpha_mode, vunify::mesh::AlphaMode::Blend);
+    let uvs = m.uvs.as_ref().unwrap();
+    let corner = |t: usize, k: usize| m.triangles[t][k] as usize;
+    assert_eq!(uvs[corner(0, 0)], glam::Vec2::new(0.0, 1.0));
+    assert_eq!(uvs[corner(0, 2)], glam::Vec2::new(1.0, 0.0));
+    let colors = m.colors.as_ref().unwrap();
+    assert!(colors[corner(0, 1)].distance(Vec3::X) < 1e-5);
+    assert!(colors[corner(1, 2)].distance(Vec3::Z) < 1e-5);
+    // A missing image is a note; a malformed line still names its line.
+    std::fs::remove_file(dir.join("red.png")).unwrap();
+    let (_, report) = vunify::mesh::load(&dir.join("q.obj"), &CleanOptions::default()).unwrap();
+    assert!(
+        report.notes.iter().any(|n| n.contains("red.png")),
+        "{:?}",
+        report.notes
+    );
+    std::fs::write(dir.join("bad.obj"), obj.replace("vt 1 0\n", "vt 1 zero\n")).unwrap();
+    let e = vunify::mesh::load(&dir.join("bad.obj"), &CleanOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("bad.obj:7"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// OBJ output of a mesh with materials writes its MTL library and the images it names; read back,
+/// the materials, their textures and the texture coordinates are as they were.
+#[test]
+fn obj_output_keeps_materials() {
+    let dir = std::env::temp_dir().join(format!("vunify-obj-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let m = two_materials();
+    let file = dir.join("two.obj");
+    vunify::export::write_mesh(&m, &file).unwrap();
+    let mtl = std::fs::read_to_string(dir.join("two.mtl")).unwrap();
+    assert!(mtl.contains("map_Kd two_texture0.png"), "{mtl}");
+    assert!(mtl.contains("map_Bump two_texture1.png"), "{mtl}");
+    let (back, report) = vunify::mesh::load(&file, &CleanOptions::default()).unwrap();
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+    assert_eq!(back.materials.len(), 2);
+    assert_eq!(back.textures.len(), 2);
+    assert!(back.materials.iter().any(|m| m.normal_texture.is_some()));
+    let of = back.material_of.as_ref().unwrap();
+    let names: Vec<&str> = back
+        .triangles
+        .iter()
+        .map(|t| back.materials[of[t[0] as usize] as usize].name.as_str())
+        .collect();
+    assert_eq!(names, ["m0_leaf", "m1_paint"]);
+    let uvs = back.uvs.as_ref().unwrap();
+    assert_eq!(uvs[back.triangles[0][1] as usize], glam::Vec2::X);
     let _ = std::fs::remove_dir_all(&dir);
 }

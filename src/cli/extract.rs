@@ -1,4 +1,4 @@
-//! `vunify extract`: a static level of detail from a `.vtree`, as OBJ.
+//! `vunify extract`: a static level of detail from a `.vtree` (or a chain of them), as a mesh file.
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -25,6 +25,12 @@ struct Target {
     /// number.
     #[arg(long, group = "target")]
     bound: Option<f32>,
+    /// A chain of static levels, each this fraction of the triangles (e.g. 0.5,0.25,0.1,0.01),
+    /// written into one .glb or .gltf: a mesh and a scene per level (the first the default), each
+    /// with its triangle count, its node error and its deviation bound (fractions of the diagonal)
+    /// in `extras`.
+    #[arg(long, group = "target", value_delimiter = ',', num_args = 1..)]
+    lod_chain: Option<Vec<f64>>,
 }
 
 #[derive(Args)]
@@ -49,6 +55,9 @@ pub fn run(args: ExtractArgs) -> Result<()> {
         Ok(e * tree.diagonal())
     };
     let t = &args.target;
+    if let Some(ratios) = &t.lod_chain {
+        return chain(&tree, ratios, &args.output);
+    }
     let cut = if let Some(n) = t.triangles {
         vtree::cut_at_triangles(&tree, n)
     } else if let Some(r) = t.ratio {
@@ -76,5 +85,51 @@ pub fn run(args: ExtractArgs) -> Result<()> {
             String::new()
         }
     );
+    Ok(())
+}
+
+/// `--lod-chain`: the levels at each ratio, in one glTF file.
+fn chain(tree: &vtree::VertexTree, ratios: &[f64], output: &std::path::Path) -> Result<()> {
+    if let Some(r) = ratios.iter().find(|r| !(**r > 0.0 && **r <= 1.0)) {
+        bail!("--lod-chain: each ratio must be in (0, 1], got {r}");
+    }
+    let total = tree.triangles.len() as u32;
+    let diagonal = tree.diagonal().max(f32::MIN_POSITIVE);
+    let bounds = tree.deviation_bounds();
+    let cuts: Vec<(vtree::Cut, f64)> = ratios
+        .iter()
+        .map(|&r| {
+            (
+                vtree::cut_at_triangles(tree, (r * total as f64).round() as u32),
+                r,
+            )
+        })
+        .collect();
+    let levels: Vec<(&vunify::mesh::Mesh, serde_json::Value)> = cuts
+        .iter()
+        .map(|(cut, ratio)| {
+            let worst = |f: &dyn Fn(u32) -> f32| {
+                cut.nodes.iter().map(|&u| f(u)).fold(0.0f32, f32::max) / diagonal
+            };
+            let extras = serde_json::json!({
+                "ratio": ratio,
+                "triangles": cut.mesh.triangle_count(),
+                "error": worst(&|u| tree.nodes[u as usize].error),
+                "bound": worst(&|u| bounds[u as usize]),
+            });
+            (&cut.mesh, extras)
+        })
+        .collect();
+    vunify::export::write_chain(&levels, output)
+        .with_context(|| format!("cannot write {}", output.display()))?;
+    println!("wrote {}: {} levels", output.display(), levels.len());
+    for (k, (mesh, extras)) in levels.iter().enumerate() {
+        println!(
+            "  LOD{k}  {:>9} triangles  error {:.4} %  bound {:.4} % of the diagonal",
+            mesh.triangle_count(),
+            100.0 * extras["error"].as_f64().unwrap_or(0.0),
+            100.0 * extras["bound"].as_f64().unwrap_or(0.0)
+        );
+    }
     Ok(())
 }

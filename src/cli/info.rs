@@ -26,11 +26,15 @@ pub fn run(args: InfoArgs) -> Result<()> {
         })?;
     }
     let root = &tree.nodes[tree.root() as usize];
+    let textures = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
+    let materials: Vec<&vunify::mesh::Material> =
+        tree.materials.iter().flat_map(|m| &m.list).collect();
     if json {
         let j = serde_json::json!({
             "file": file, "leaves": tree.leaf_count, "nodes": tree.nodes.len(), "triangles": tree.triangles.len(),
             "depth": tree.depth(), "metric": tree.metric.name(), "colors": tree.has_colors, "normals": tree.has_normals,
-            "parts": tree.parts, "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
+            "parts": tree.parts, "textured": tree.appearance.is_some(), "images": textures,
+            "materials": materials, "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
         return Ok(());
@@ -54,6 +58,25 @@ pub fn run(args: InfoArgs) -> Result<()> {
         100.0 * root.error / tree.diagonal().max(f32::MIN_POSITIVE),
         tree.diagonal()
     );
+    if tree.appearance.is_some() {
+        println!("textures   texture coordinates, {textures} images");
+    }
+    if !materials.is_empty() {
+        println!("materials  {}", materials.len());
+        for m in materials.iter().take(20) {
+            let texture = if m.base_color_texture.is_some() {
+                ", base colour texture"
+            } else {
+                ""
+            };
+            println!(
+                "           {}: {:?}{texture}{}",
+                m.name,
+                m.alpha_mode,
+                if m.double_sided { ", double-sided" } else { "" }
+            );
+        }
+    }
     println!("parts      {}", tree.parts.len());
     for p in tree.parts.iter().take(20) {
         println!("           {:>8} triangles  {}", p.triangles, p.name);

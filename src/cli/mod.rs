@@ -42,7 +42,7 @@ enum Command {
     Build(build::BuildArgs),
     /// Print what a .vtree file holds.
     Info(info::InfoArgs),
-    /// Take a static level of detail from a .vtree and write it as OBJ.
+    /// Take a static level of detail from a .vtree and write it as OBJ, PLY, OFF or glTF (textures and materials kept).
     Extract(extract::ExtractArgs),
     /// Write a camera path (JSON) around a model: an orbit, a fly-in (far to near, as in Tao et al.'s
     /// Fig. 6) or a flythrough (close past and through the model).

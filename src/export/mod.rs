@@ -3,7 +3,7 @@
 
 pub mod gltf;
 
-use crate::mesh::Mesh;
+use crate::mesh::{Format, Mesh};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
@@ -125,6 +125,12 @@ fn remove_stale_temporaries(dir: &Path, prefix: &str) {
 
 /// OBJ text of a mesh: `v x y z [r g b]`, `vn` when the mesh has normals, one `o` per part.
 pub fn obj_string(mesh: &Mesh) -> String {
+    obj_with_materials(mesh, None)
+}
+
+/// OBJ text; with `library` (the MTL file's name), also `vt` texture coordinates (OBJ's `v` counts
+/// from the image's bottom) and a `usemtl` before each run of triangles of one material.
+fn obj_with_materials(mesh: &Mesh, library: Option<&str>) -> String {
     let mut s = String::with_capacity(mesh.positions.len() * 40 + mesh.triangles.len() * 24);
     let _ = writeln!(s, "# written by vunify {}", env!("CARGO_PKG_VERSION"));
     let _ = writeln!(
@@ -133,15 +139,25 @@ pub fn obj_string(mesh: &Mesh) -> String {
         mesh.positions.len(),
         mesh.triangles.len()
     );
+    let materials = library.and_then(|_| gltf::materials_of(mesh));
+    if let Some(name) = library {
+        let _ = writeln!(s, "mtllib {name}");
+    }
     for (i, p) in mesh.positions.iter().enumerate() {
         match &mesh.colors {
-            Some(c) => {
+            Some(c) if materials.is_none() => {
                 let c = c[i];
                 let _ = writeln!(s, "v {} {} {} {} {} {}", p.x, p.y, p.z, c.x, c.y, c.z);
             }
-            None => {
+            _ => {
                 let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
             }
+        }
+    }
+    let uvs = mesh.uvs.as_ref().filter(|_| materials.is_some());
+    if let Some(uvs) = uvs {
+        for t in uvs {
+            let _ = writeln!(s, "vt {} {}", t.x, 1.0 - t.y);
         }
     }
     if let Some(normals) = &mesh.normals {
@@ -149,18 +165,79 @@ pub fn obj_string(mesh: &Mesh) -> String {
             let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
         }
     }
+    let mut current = None;
     for part in &mesh.parts {
         let _ = writeln!(s, "o {}", part.name);
         for t in &mesh.triangles[part.triangles.start as usize..part.triangles.end as usize] {
-            let [a, b, c] = t.map(|v| v + 1);
-            if mesh.normals.is_some() {
-                let _ = writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}");
-            } else {
-                let _ = writeln!(s, "f {a} {b} {c}");
+            if let Some((list, of)) = &materials {
+                let m = of[t[0] as usize];
+                if current != Some(m) {
+                    current = Some(m);
+                    let _ = writeln!(s, "usemtl {}", mtl_name(&list[m as usize], m));
+                }
             }
+            let [a, b, c] = t.map(|v| v + 1);
+            match (uvs.is_some(), mesh.normals.is_some()) {
+                (true, true) => writeln!(s, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}"),
+                (true, false) => writeln!(s, "f {a}/{a} {b}/{b} {c}/{c}"),
+                (false, true) => writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}"),
+                (false, false) => writeln!(s, "f {a} {b} {c}"),
+            }
+            .expect("writing to a String");
         }
     }
     s
+}
+
+/// A material's name in MTL: one word (spaces would end it), unique by its index.
+fn mtl_name(m: &crate::mesh::Material, index: u32) -> String {
+    let word: String = m
+        .name
+        .chars()
+        .map(|c| if c.is_whitespace() { '_' } else { c })
+        .collect();
+    format!("m{index}_{word}")
+}
+
+/// The MTL library of `mesh`'s materials (`Kd` and `d` the base colour and alpha, `map_Kd` the
+/// base colour texture, `map_Bump` the normal map, `Ke` the emission), and the textures it names
+/// with their files' names, `image_name(texture, extension)`.
+fn mtl_library(
+    mesh: &Mesh,
+    image_name: &dyn Fn(usize, &str) -> String,
+) -> (String, Vec<(usize, String)>) {
+    let mut s = format!("# written by vunify {}\n", env!("CARGO_PKG_VERSION"));
+    let mut files: Vec<(usize, String)> = Vec::new();
+    let Some((list, _)) = gltf::materials_of(mesh) else {
+        return (s, files);
+    };
+    let mut file = |t: u32| {
+        let t = t as usize;
+        let name = image_name(t, gltf::mime_type(&mesh.textures[t]).1);
+        if !files.iter().any(|(k, _)| *k == t) {
+            files.push((t, name.clone()));
+        }
+        name
+    };
+    for (i, m) in list.iter().enumerate() {
+        let [r, g, b, a] = m.base_color_factor;
+        let _ = writeln!(
+            s,
+            "\nnewmtl {}\nKd {r} {g} {b}\nd {a}",
+            mtl_name(m, i as u32)
+        );
+        let [er, eg, eb] = m.emissive_factor;
+        if m.emissive_factor != [0.0; 3] {
+            let _ = writeln!(s, "Ke {er} {eg} {eb}");
+        }
+        if let Some(t) = m.base_color_texture {
+            let _ = writeln!(s, "map_Kd {}", file(t));
+        }
+        if let Some(t) = m.normal_texture {
+            let _ = writeln!(s, "map_Bump {}", file(t));
+        }
+    }
+    (s, files)
 }
 
 pub fn write_obj(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
@@ -246,6 +323,37 @@ pub fn off_string(mesh: &Mesh) -> String {
     s
 }
 
+/// Writes a chain of levels of detail of one model as one glTF file (`.glb`, or `.gltf` with its
+/// `.bin` and images beside it): a mesh and a scene per level, each with `extras` saying what it is.
+pub fn write_chain(levels: &[(&Mesh, serde_json::Value)], path: &Path) -> std::io::Result<()> {
+    if Format::from_path(path) != Some(Format::Gltf) || levels.is_empty() {
+        return Err(std::io::Error::other(
+            "a chain of levels is written as .glb or .gltf",
+        ));
+    }
+    if is_glb(path) {
+        let (doc, bin) = gltf::chain_document(levels, None);
+        return write_atomic(path, &gltf::glb(&doc, bin));
+    }
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "mesh".into(), |n| n.to_string_lossy().into_owned());
+    let bin_name = format!("{stem}.bin");
+    let image_name = |k: usize, ext: &str| format!("{stem}_image{k}.{ext}");
+    let (doc, bin) = gltf::chain_document(levels, Some((&bin_name, &image_name)));
+    write_atomic(&path.with_extension("bin"), &bin)?;
+    for (k, image) in gltf::images(levels[0].0).iter().enumerate() {
+        write_atomic(
+            &path.with_file_name(image_name(k, image.extension)),
+            image.bytes,
+        )?;
+    }
+    write_atomic(
+        path,
+        &serde_json::to_vec_pretty(&doc).map_err(std::io::Error::other)?,
+    )
+}
+
 fn is_glb(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb"))
@@ -268,19 +376,40 @@ pub fn write_mesh(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
             "glTF output is not written .xz-compressed",
         ));
     }
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "mesh".into(), |n| n.to_string_lossy().into_owned());
+    let stem = stem.strip_suffix(".obj").unwrap_or(&stem).to_owned();
+    let image_name = |k: usize, ext: &str| format!("{stem}_image{k}.{ext}");
     let bytes = match format {
+        // A mesh with textures or materials: its MTL library and images beside it.
+        Format::Obj if mesh.material_of.is_some() || mesh.texture_of.is_some() => {
+            let library = format!("{stem}.mtl");
+            let texture_name = |t: usize, ext: &str| format!("{stem}_texture{t}.{ext}");
+            let (mtl, files) = mtl_library(mesh, &texture_name);
+            for (t, name) in files {
+                write_atomic(&path.with_file_name(name), &mesh.textures[t])?;
+            }
+            write_atomic(&path.with_file_name(&library), mtl.as_bytes())?;
+            obj_with_materials(mesh, Some(&library)).into_bytes()
+        }
         Format::Obj => obj_string(mesh).into_bytes(),
         Format::Ply => ply_bytes(mesh),
         Format::Off => off_string(mesh).into_bytes(),
         Format::Gltf if is_glb(path) => gltf::glb_bytes(mesh),
         Format::Gltf => {
-            // The JSON names its buffer, written first beside it (same stem, `.bin`).
+            // The JSON names its buffer and images, written first beside it: the same stem,
+            // `.bin`, and `_image<k>.png` / `.jpg`.
             let bin_path = path.with_extension("bin");
-            let name = bin_path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned());
-            let (doc, bin) = gltf::document(mesh, name.as_deref());
+            let bin_name = format!("{stem}.bin");
+            let (doc, bin) = gltf::document(mesh, Some((&bin_name, &image_name)));
             write_atomic(&bin_path, &bin)?;
+            for (k, image) in gltf::images(mesh).iter().enumerate() {
+                write_atomic(
+                    &path.with_file_name(image_name(k, image.extension)),
+                    image.bytes,
+                )?;
+            }
             serde_json::to_vec_pretty(&doc).map_err(std::io::Error::other)?
         }
     };

@@ -13,7 +13,7 @@
 //! builder weighs (docs/APPEARANCE.md).
 
 use super::error::InputError;
-use super::{Mesh, NO_TEXTURE, Part};
+use super::{AlphaMode, Material, Mesh, NO_TEXTURE, Part};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -45,6 +45,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
     let images = load_images(&document, &buffers, base, &mut notes);
     let mut reader = Reader {
         path,
+        base,
         buffers: &buffers,
         images: &images,
         mesh: Mesh::default(),
@@ -52,6 +53,8 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
         uvs: Vec::new(),
         texture_of: Vec::new(),
         texture_index: Default::default(),
+        material_index: Default::default(),
+        material_of: Vec::new(),
         notes,
     };
     let scene = document
@@ -75,9 +78,11 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
         colors,
         uvs,
         texture_of,
+        material_of,
         notes,
         ..
     } = reader;
+    mesh.material_of = Some(material_of);
     if !mesh.textures.is_empty() {
         mesh.uvs = Some(uvs);
         mesh.texture_of = Some(texture_of);
@@ -232,9 +237,9 @@ fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
 }
 
 /// A decoded base colour texture: sRGB bytes, row by row (decoded to linear when sampled).
-struct Image {
+pub(super) struct Image {
     /// The image file's bytes, as the tree keeps them.
-    file: std::sync::Arc<Vec<u8>>,
+    pub(super) file: std::sync::Arc<Vec<u8>>,
     width: u32,
     height: u32,
     rgb: Vec<[u8; 3]>,
@@ -282,16 +287,7 @@ fn load_images(
                 return None;
             }
             let what = format!("image {}", image.index());
-            let bytes = match image.source() {
-                gltf::image::Source::Uri { uri, .. } => read_uri(uri, base),
-                gltf::image::Source::View { view, .. } => {
-                    let data = &buffers[view.buffer().index()];
-                    data.get(view.offset()..view.offset() + view.length())
-                        .map(<[u8]>::to_vec)
-                        .ok_or_else(|| format!("buffer view {} runs past its buffer", view.index()))
-                }
-            };
-            let decoded = bytes.and_then(|b| decode_image(&b));
+            let decoded = image_file(&image, buffers, base).and_then(|b| decode_image(&b));
             match decoded {
                 Ok(i) => Some(i),
                 Err(e) => {
@@ -305,11 +301,43 @@ fn load_images(
         .collect()
 }
 
+/// An image's file: its URI's or its buffer view's bytes.
+fn image_file(image: &gltf::Image, buffers: &[Vec<u8>], base: &Path) -> Result<Vec<u8>, String> {
+    match image.source() {
+        gltf::image::Source::Uri { uri, .. } => read_uri(uri, base),
+        gltf::image::Source::View { view, .. } => {
+            let data = &buffers[view.buffer().index()];
+            data.get(view.offset()..view.offset() + view.length())
+                .map(<[u8]>::to_vec)
+                .ok_or_else(|| format!("buffer view {} runs past its buffer", view.index()))
+        }
+    }
+}
+
+/// A map carried through (normal, metallic-roughness, occlusion, emissive): its file, checked for
+/// a sane size but not decoded.
+fn carried_image(image: &gltf::Image, buffers: &[Vec<u8>], base: &Path) -> Result<Vec<u8>, String> {
+    let bytes = image_file(image, buffers, base)?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?;
+    let (w, h) = reader.into_dimensions().map_err(|e| e.to_string())?;
+    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_IMAGE_PIXELS {
+        return Err(format!("{w} × {h} pixels"));
+    }
+    Ok(bytes)
+}
+
 /// Each vertex's colour from a texture: the area-weighted mean, over the triangles around it, of
 /// the texture's mean over each triangle's UV footprint (15 samples a triangle). Sampling at the
 /// vertex alone reads whatever lies under its UV, often a chart's border (the Deccer cubes'
 /// corners are white on blue faces); the mean is what a coarse level of the triangle shows.
-fn bake(image: &Image, positions: &[[f32; 3]], uvs: &[Vec2], tris: &[[u32; 3]]) -> Vec<Vec3> {
+pub(super) fn bake(
+    image: &Image,
+    positions: &[[f32; 3]],
+    uvs: &[Vec2],
+    tris: &[[u32; 3]],
+) -> Vec<Vec3> {
     const STEPS: u32 = 4;
     let samples: Vec<[f32; 3]> = (0..=STEPS)
         .flat_map(|i| {
@@ -343,7 +371,7 @@ fn bake(image: &Image, positions: &[[f32; 3]], uvs: &[Vec2], tris: &[[u32; 3]]) 
         .collect()
 }
 
-fn decode_image(bytes: &[u8]) -> Result<Image, String> {
+pub(super) fn decode_image(bytes: &[u8]) -> Result<Image, String> {
     let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| e.to_string())?;
@@ -376,6 +404,8 @@ const MAX_DEPTH: usize = 256;
 
 struct Reader<'a> {
     path: &'a Path,
+    /// The folder external files are resolved in.
+    base: &'a Path,
     buffers: &'a [Vec<u8>],
     images: &'a [Option<Image>],
     mesh: Mesh,
@@ -384,8 +414,12 @@ struct Reader<'a> {
     /// One per position: texture coordinates and texture ([`NO_TEXTURE`] and zero where none).
     uvs: Vec<Vec2>,
     texture_of: Vec<u32>,
-    /// The file's image index of each of `mesh.textures`.
+    /// `mesh.textures`' index of each image of the file read so far.
     texture_index: std::collections::HashMap<usize, u32>,
+    /// `mesh.materials`' index of each material of the file (`None`: the default one) read so far.
+    material_index: std::collections::HashMap<Option<usize>, u32>,
+    /// One per position.
+    material_of: Vec<u32>,
     notes: Vec<String>,
 }
 
@@ -461,6 +495,9 @@ impl Reader<'_> {
             let tris = triangles(mode, &indices);
             let (colors, uvs_here, texture_here) =
                 self.appearance(&primitive, &what, &positions, &tris)?;
+            let material = self.material(&primitive, &what, texture_here);
+            self.material_of
+                .extend(std::iter::repeat_n(material, count));
             let base = self.mesh.positions.len() as u32;
             let first = self.mesh.triangles.len() as u32;
             for corners in tris {
@@ -502,6 +539,107 @@ impl Reader<'_> {
             }
         }
         Ok(())
+    }
+
+    /// The primitive's material, as an index into `mesh.materials` (added when first met). Its
+    /// other maps are carried when its base colour texture was read (they read its coordinates).
+    fn material(&mut self, primitive: &gltf::Primitive, what: &str, base_texture: u32) -> u32 {
+        let m = primitive.material();
+        let tinted = primitive.get(&gltf::Semantic::Colors(0)).is_some();
+        if let Some(&i) = self.material_index.get(&m.index()) {
+            self.mesh.materials[i as usize].vertex_colors |= tinted;
+            return i;
+        }
+        let pbr = m.pbr_metallic_roughness();
+        let mut out = Material {
+            name: m.name().map_or_else(
+                || {
+                    m.index()
+                        .map_or("default".into(), |k| format!("material {k}"))
+                },
+                str::to_owned,
+            ),
+            base_color_factor: pbr.base_color_factor(),
+            base_color_texture: (base_texture != NO_TEXTURE).then_some(base_texture),
+            metallic_factor: pbr.metallic_factor(),
+            roughness_factor: pbr.roughness_factor(),
+            emissive_factor: m.emissive_factor(),
+            alpha_mode: match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
+            double_sided: m.double_sided(),
+            vertex_colors: tinted,
+            ..Material::default()
+        };
+        let set = pbr.base_color_texture().map(|t| t.tex_coord());
+        let maps = [
+            (
+                "metallic-roughness",
+                pbr.metallic_roughness_texture()
+                    .map(|t| (t.texture(), t.tex_coord())),
+            ),
+            (
+                "normal",
+                m.normal_texture().map(|t| (t.texture(), t.tex_coord())),
+            ),
+            (
+                "occlusion",
+                m.occlusion_texture().map(|t| (t.texture(), t.tex_coord())),
+            ),
+            (
+                "emissive",
+                m.emissive_texture().map(|t| (t.texture(), t.tex_coord())),
+            ),
+        ];
+        let mut carried = [None; 4];
+        for (slot, (kind, map)) in carried.iter_mut().zip(maps) {
+            let Some((texture, coords)) = map else {
+                continue;
+            };
+            if out.base_color_texture.is_none() {
+                self.notes.push(format!(
+                    "{what}: the {kind} map of material {:?} left out (it is carried only beside a base colour texture, whose coordinates it reads)",
+                    out.name
+                ));
+                continue;
+            }
+            if Some(coords) != set {
+                self.notes.push(format!(
+                    "{what}: the {kind} map of material {:?} reads TEXCOORD_{coords}; it is written with the base colour's coordinates",
+                    out.name
+                ));
+            }
+            let image = texture.source();
+            if let Some(&t) = self.texture_index.get(&image.index()) {
+                *slot = Some(t);
+                continue;
+            }
+            match carried_image(&image, self.buffers, self.base) {
+                Ok(bytes) => {
+                    self.mesh.textures.push(std::sync::Arc::new(bytes));
+                    let t = self.mesh.textures.len() as u32 - 1;
+                    self.texture_index.insert(image.index(), t);
+                    *slot = Some(t);
+                }
+                Err(e) => self.notes.push(format!(
+                    "image {} ({kind} map) left out ({e})",
+                    image.index()
+                )),
+            }
+        }
+        [
+            out.metallic_roughness_texture,
+            out.normal_texture,
+            out.occlusion_texture,
+            out.emissive_texture,
+        ] = carried;
+        self.mesh.materials.push(out);
+        let i = self.mesh.materials.len() as u32 - 1;
+        self.material_index.insert(m.index(), i);
+        i
     }
 
     /// A primitive's vertex colours (base colour factor × `COLOR_0` × the texture's mean around

@@ -8,6 +8,7 @@ mod clean;
 mod error;
 pub mod gltf;
 mod obj;
+mod obj_textured;
 mod off;
 mod ply;
 mod ply_binary;
@@ -55,8 +56,86 @@ pub struct Mesh {
     /// Vertices on a border between textures are split (the clean-up welds only vertices with the
     /// same texture and coordinates), so a vertex has one.
     pub texture_of: Option<Vec<u32>>,
-    /// Base colour textures, as their image files' bytes (PNG or JPEG, sRGB).
+    /// Images, as their files' bytes (PNG or JPEG): the base colour textures [`Mesh::texture_of`]
+    /// names (sRGB), and the other maps of [`Mesh::materials`] (carried through to the output).
     pub textures: Vec<std::sync::Arc<Vec<u8>>>,
+    /// The file's materials (glTF materials, OBJ `usemtl` of an MTL library); empty when it has none.
+    pub materials: Vec<Material>,
+    /// Each vertex's material, an index into [`Mesh::materials`]; `None` when there are none. A
+    /// vertex on a border between materials is split like a texture seam, so a triangle's corners
+    /// share one.
+    pub material_of: Option<Vec<u32>>,
+}
+
+/// A surface's material, glTF's metallic-roughness model (an OBJ material maps onto it: `Kd` and
+/// `map_Kd` are its base colour, `d` its alpha). Texture fields index [`Mesh::textures`]; every
+/// map reads [`Mesh::uvs`]. Only the base colour is drawn and weighed by the builder; the others
+/// are carried through to the files vunify writes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA.
+    pub base_color_factor: [f32; 4],
+    pub base_color_texture: Option<u32>,
+    pub metallic_factor: f32,
+    pub roughness_factor: f32,
+    pub metallic_roughness_texture: Option<u32>,
+    pub normal_texture: Option<u32>,
+    pub occlusion_texture: Option<u32>,
+    pub emissive_texture: Option<u32>,
+    pub emissive_factor: [f32; 3],
+    pub alpha_mode: AlphaMode,
+    /// The alpha below which a [`AlphaMode::Mask`] surface is not drawn.
+    pub alpha_cutoff: f32,
+    pub double_sided: bool,
+    /// Some of its vertices had colours of their own (glTF `COLOR_0`), which multiply the base colour.
+    pub vertex_colors: bool,
+}
+
+impl Default for Material {
+    /// glTF's default material: white, fully metallic and rough, opaque, single-sided.
+    fn default() -> Material {
+        Material {
+            name: String::new(),
+            base_color_factor: [1.0; 4],
+            base_color_texture: None,
+            metallic_factor: 1.0,
+            roughness_factor: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            occlusion_texture: None,
+            emissive_texture: None,
+            emissive_factor: [0.0; 3],
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            double_sided: false,
+            vertex_colors: false,
+        }
+    }
+}
+
+impl Material {
+    /// Every image the material uses.
+    pub fn textures(&self) -> impl Iterator<Item = u32> {
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.normal_texture,
+            self.occlusion_texture,
+            self.emissive_texture,
+        ]
+        .into_iter()
+        .flatten()
+    }
+}
+
+/// How a material's alpha is used (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum AlphaMode {
+    #[default]
+    Opaque,
+    Mask,
+    Blend,
 }
 
 /// [`Mesh::texture_of`] of a vertex with no texture.
@@ -112,7 +191,27 @@ impl Mesh {
             uvs: None,
             texture_of: None,
             textures: Vec::new(),
+            materials: Vec::new(),
+            material_of: None,
         }
+    }
+
+    /// Gives each vertex the attributes of `source`'s vertex `ids[v]` (colours, normals, radiosity,
+    /// texture coordinates and texture, material), with `source`'s textures, materials and sidedness.
+    pub fn carry_attributes(&mut self, source: &Mesh, ids: &[u32]) {
+        fn pick<T: Copy>(a: &Option<Vec<T>>, ids: &[u32]) -> Option<Vec<T>> {
+            a.as_ref()
+                .map(|a| ids.iter().map(|&v| a[v as usize]).collect())
+        }
+        self.colors = pick(&source.colors, ids);
+        self.normals = pick(&source.normals, ids);
+        self.radiosity = pick(&source.radiosity, ids);
+        self.uvs = pick(&source.uvs, ids);
+        self.texture_of = pick(&source.texture_of, ids);
+        self.material_of = pick(&source.material_of, ids);
+        self.textures = source.textures.clone();
+        self.materials = source.materials.clone();
+        self.one_sided = source.one_sided;
     }
 
     /// Checks the structural invariants every loader and [`clean`] guarantee.
@@ -169,6 +268,20 @@ impl Mesh {
         if next as usize != self.triangles.len() {
             return Err(MeshProblem::PartsShort);
         }
+        if let Some(m) = &self.material_of
+            && (m.len() != n || m.iter().any(|&i| i as usize >= self.materials.len()))
+        {
+            return Err(MeshProblem::Materials);
+        }
+        let images = self.textures.len() as u32;
+        if self
+            .materials
+            .iter()
+            .flat_map(Material::textures)
+            .any(|t| t >= images)
+        {
+            return Err(MeshProblem::Materials);
+        }
         Ok(())
     }
 }
@@ -194,6 +307,8 @@ pub enum MeshProblem {
     PartsOverlap(String),
     #[error("parts do not cover every triangle")]
     PartsShort,
+    #[error("a vertex's material or a material's texture is out of range")]
+    Materials,
 }
 
 /// The length of a box's diagonal `extent`, without the underflow or overflow of squaring its sides
@@ -284,6 +399,19 @@ pub fn load(path: &Path, options: &CleanOptions) -> Result<(Mesh, CleanReport), 
         })??;
         notes = read.notes;
         read.mesh
+    } else if format == Format::Obj && std::str::from_utf8(&bytes).is_ok_and(obj_textured::wants) {
+        // Read by the geometry reader first, for its errors with line numbers.
+        parse(&bytes, format, path)?;
+        let text = std::str::from_utf8(&bytes).expect("checked above");
+        std::panic::catch_unwind(|| {
+            let mut notes = Vec::new();
+            obj_textured::parse(text, path, &mut notes).map(|m| (m, notes))
+        })
+        .map_err(|_| InputError::whole(path, "the parser failed on this input (internal error)"))?
+        .map(|(m, n)| {
+            notes = n;
+            m
+        })?
     } else {
         parse(&bytes, format, path)?
     };

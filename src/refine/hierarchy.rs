@@ -523,6 +523,16 @@ fn appearance_of(
     let Some(a) = &tree.appearance else {
         return (Vec::new(), Vec::new());
     };
+    // Only base colour textures are drawn: each gets a layer (the other maps a material carries
+    // are not uploaded).
+    let mut layer = vec![-1.0f32; a.textures.len()];
+    let mut drawn = Vec::new();
+    for &t in &a.texture_of {
+        if t != crate::mesh::NO_TEXTURE && layer[t as usize] < 0.0 {
+            layer[t as usize] = drawn.len() as f32;
+            drawn.push(a.textures[t as usize].clone());
+        }
+    }
     let uv_texture = old_of
         .iter()
         .map(|&old| {
@@ -531,12 +541,12 @@ fn appearance_of(
             let t = if t == crate::mesh::NO_TEXTURE {
                 -1.0
             } else {
-                t as f32
+                layer[t as usize]
             };
             [a.uvs[old][0], a.uvs[old][1], t]
         })
         .collect();
-    (uv_texture, a.textures.clone())
+    (uv_texture, drawn)
 }
 
 /// Every node's display colour in the hierarchy's order; empty for a tree without colours.

@@ -163,7 +163,7 @@ fn simplify_watched(
     stats.triangles = w.live_faces;
     stats.seconds = start.elapsed().as_secs_f64();
     progress(w.live_faces);
-    Ok((w.into_mesh(), stats))
+    Ok((w.into_mesh(mesh), stats))
 }
 
 impl Work {
@@ -513,8 +513,8 @@ impl Work {
         })
     }
 
-    fn into_mesh(self) -> Mesh {
-        crate::simplify::live_mesh(&self.positions, &self.faces, &self.alive)
+    fn into_mesh(self, input: &Mesh) -> Mesh {
+        crate::simplify::live_mesh(&self.positions, &self.faces, &self.alive, input)
     }
 }
 

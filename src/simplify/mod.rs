@@ -25,25 +25,31 @@ pub enum DistanceError {
 }
 
 /// The live faces of a working mesh as a compact [`Mesh`] (unused vertices dropped, positions
-/// rounded to `f32`).
+/// rounded to `f32`). A working vertex is the input vertex of its index, moved: it keeps that
+/// vertex's attributes (colour, normal, texture coordinates, material) from `input`.
 pub(crate) fn live_mesh(
     positions: &[glam::DVec3],
     faces: &[[u32; 3]],
     alive: &[bool],
+    input: &crate::mesh::Mesh,
 ) -> crate::mesh::Mesh {
     let mut index = vec![u32::MAX; positions.len()];
     let mut out = Vec::new();
+    let mut kept = Vec::new();
     let mut triangles = Vec::new();
     for (t, _) in faces.iter().zip(alive).filter(|(_, a)| **a) {
         triangles.push(t.map(|v| {
             if index[v as usize] == u32::MAX {
                 index[v as usize] = out.len() as u32;
                 out.push(positions[v as usize].as_vec3());
+                kept.push(v);
             }
             index[v as usize]
         }));
     }
-    crate::mesh::Mesh::from_triangles(out, triangles)
+    let mut mesh = crate::mesh::Mesh::from_triangles(out, triangles);
+    mesh.carry_attributes(input, &kept);
+    mesh
 }
 
 /// A small deterministic generator for the unit tests: uniform in [0, 1).

@@ -95,6 +95,14 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
             .appearance
             .as_ref()
             .map_or_else(Vec::new, |a| a.textures.clone()),
+        materials: tree
+            .materials
+            .as_ref()
+            .map_or_else(Vec::new, |m| m.list.clone()),
+        material_of: tree
+            .materials
+            .as_ref()
+            .map(|m| nodes.iter().map(|&u| m.of[u as usize]).collect()),
     };
     Cut {
         nodes,

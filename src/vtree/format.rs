@@ -24,8 +24,9 @@ const FLAG_ONE_SIDED: u32 = 4;
 const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
 /// Sections a tree may have or not (readers before them skip them): a textured tree's per-node
 /// texture coordinates and texture (`u`, `v` as f32, the texture as u32), and its textures (a
-/// count, then each as a u64 length and its image file's bytes).
-const OPTIONAL: [[u8; 4]; 2] = [*b"UVTX", *b"TEXS"];
+/// count, then each as a u64 length and its image file's bytes); and its materials (a u32 length
+/// and the materials as JSON, then each node's material as a u32).
+const OPTIONAL: [[u8; 4]; 3] = [*b"UVTX", *b"TEXS", *b"MATL"];
 const UVTX_LEN: u64 = 12;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,7 +108,16 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
             texs.extend_from_slice(t);
         }
         sections.extend([&uvtx[..], &texs[..]]);
-        tags.extend(OPTIONAL);
+        tags.extend(&OPTIONAL[..2]);
+    }
+    let mut matl = Vec::new();
+    if let Some(m) = &tree.materials {
+        let json = serde_json::to_vec(&m.list).expect("materials serialize");
+        matl.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        matl.extend_from_slice(&json);
+        matl.extend_from_slice(bytemuck::cast_slice(&m.of));
+        sections.push(&matl);
+        tags.push(OPTIONAL[2]);
     }
     let table_end = HEADER + TABLE_ENTRY * sections.len();
     let mut head = Vec::with_capacity(table_end + 4);
@@ -178,7 +188,7 @@ impl Cursor<'_> {
 /// Parses and validates `.vtree` bytes; `path` names the file in errors.
 pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
     let fail = Fail { path };
-    let ([meta, node_bytes, tri_bytes, off_bytes, part_bytes], [uvtx, texs]) =
+    let ([meta, node_bytes, tri_bytes, off_bytes, part_bytes], [uvtx, texs, matl]) =
         sections(bytes, &fail)?;
     if meta.len() != META_LEN {
         return Err(fail.at(
@@ -229,9 +239,54 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
             (None, None) => None,
             _ => return Err(fail.invalid("UVTX and TEXS come together".into())),
         },
+        materials: None,
     };
+    let mut tree = tree;
+    if let Some(matl) = matl {
+        let images = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
+        tree.materials = Some(materials(matl, nodes, images, &fail)?);
+    }
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
+}
+
+/// The MATL section, checked: its JSON, one material per node, in range, and every texture in
+/// range of the tree's `images`.
+fn materials(
+    matl: &[u8],
+    nodes: u32,
+    images: usize,
+    fail: &Fail,
+) -> Result<super::Materials, FormatError> {
+    let c = Cursor { bytes: matl };
+    let json_len = (matl.len() >= 4).then(|| c.u32(0) as usize);
+    let json = json_len
+        .and_then(|l| matl.get(4..4 + l))
+        .ok_or_else(|| fail.invalid("section MATL is shorter than its JSON".into()))?;
+    let list: Vec<crate::mesh::Material> = serde_json::from_slice(json)
+        .map_err(|e| fail.invalid(format!("section MATL's materials: {e}")))?;
+    let rest = &matl[4 + json.len()..];
+    if rest.len() as u64 != nodes as u64 * 4 {
+        return Err(fail.invalid(format!(
+            "section MATL has {} bytes of node materials, but META's counts need {}",
+            rest.len(),
+            nodes as u64 * 4
+        )));
+    }
+    let of: Vec<u32> = bytemuck::pod_collect_to_vec(rest);
+    if let Some(i) = of.iter().position(|&m| m as usize >= list.len()) {
+        return Err(fail.invalid(format!("node {i}'s material {} is out of range", of[i])));
+    }
+    if let Some(m) = list
+        .iter()
+        .find(|m| m.textures().any(|t| t as usize >= images))
+    {
+        return Err(fail.invalid(format!(
+            "material {:?} names a texture the tree does not hold",
+            m.name
+        )));
+    }
+    Ok(super::Materials { list, of })
 }
 
 /// A textured tree's appearance sections, checked: one entry per node, each texture index in
@@ -319,7 +374,7 @@ impl Fail<'_> {
 fn sections<'b>(
     bytes: &'b [u8],
     fail: &Fail,
-) -> Result<([&'b [u8]; 5], [Option<&'b [u8]>; 2]), FormatError> {
+) -> Result<([&'b [u8]; 5], [Option<&'b [u8]>; 3]), FormatError> {
     let len = bytes.len() as u64;
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
         return Err(fail.at(
@@ -362,7 +417,7 @@ fn sections<'b>(
     }
     let mut expected = (table_end + 4) as u64;
     let mut found: [Option<&[u8]>; 5] = [None; 5];
-    let mut optional: [Option<&[u8]>; 2] = [None; 2];
+    let mut optional: [Option<&[u8]>; 3] = [None; 3];
     for i in 0..count as usize {
         let at = HEADER + i * TABLE_ENTRY;
         let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");

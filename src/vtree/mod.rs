@@ -86,6 +86,18 @@ pub struct VertexTree {
     pub parts: Vec<PartInfo>,
     /// Texture coordinates and base colour textures, when the input had them.
     pub appearance: Option<Appearance>,
+    /// The input's materials and each node's, when it had them.
+    pub materials: Option<Materials>,
+}
+
+/// A tree's materials (their textures index [`Appearance::textures`]) and each node's material: a
+/// leaf's is its vertex's, an internal node's its larger child's (edge merges keep to one material,
+/// whose borders are split vertices; no non-edge merge below the components' joins crosses one).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Materials {
+    pub list: Vec<crate::mesh::Material>,
+    /// Per node, an index into `list`.
+    pub of: Vec<u32>,
 }
 
 /// What a textured tree carries besides its nodes: per node, texture coordinates and a texture

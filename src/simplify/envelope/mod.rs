@@ -198,7 +198,7 @@ pub fn simplify_envelope(
     stats.intersection_tests = tests.get();
     stats.seconds = start.elapsed().as_secs_f64();
     progress(w.live_faces);
-    Ok((w.into_mesh(), stats))
+    Ok((w.into_mesh(mesh), stats))
 }
 
 fn candidate(w: &Work, face: u32) -> Candidate {

@@ -254,7 +254,7 @@ impl Work {
         a
     }
 
-    pub fn into_mesh(self) -> Mesh {
-        crate::simplify::live_mesh(&self.positions, &self.faces, &self.alive)
+    pub fn into_mesh(self, input: &Mesh) -> Mesh {
+        crate::simplify::live_mesh(&self.positions, &self.faces, &self.alive, input)
     }
 }

@@ -436,6 +436,10 @@ fn build_unit(
                 && uvs[a as usize].distance(uvs[b as usize]) <= CHART_UV_DISTANCE
         });
     }
+    // Nor two materials.
+    if let Some(m) = &mesh.material_of {
+        close.retain(|&(a, b)| m[a as usize] == m[b as usize]);
+    }
     stats.proximity_pairs = close.len() as u32;
     stats.phases.features = features_secs;
     stats.phases.close_pairs = clock.elapsed().as_secs_f64();
@@ -551,6 +555,7 @@ impl Builder<'_> {
             has_normals: mesh.normals.is_some(),
             one_sided: mesh.one_sided,
             appearance: None,
+            materials: None,
             parts: mesh
                 .parts
                 .iter()
@@ -562,6 +567,7 @@ impl Builder<'_> {
         };
         let mut tree = tree;
         tree.appearance = appearance(mesh, &tree.nodes);
+        tree.materials = materials(mesh, &tree.nodes);
         stats.nodes = tree.nodes.len() as u32;
         stats.depth = tree.depth();
         (tree, stats)
@@ -608,6 +614,23 @@ fn appearance(mesh: &Mesh, nodes: &[Node]) -> Option<super::Appearance> {
         uvs: uv,
         texture_of: texture,
         textures: mesh.textures.clone(),
+    })
+}
+
+/// Each node's material, when the mesh has them: a leaf's is its vertex's, an internal node's that
+/// of the child with more leaves.
+fn materials(mesh: &Mesh, nodes: &[Node]) -> Option<super::Materials> {
+    let material_of = mesh.material_of.as_ref()?;
+    let mut of = material_of.clone();
+    let mut leaves = vec![1u32; of.len()];
+    for node in &nodes[of.len()..] {
+        let [a, b] = node.children.map(|c| c as usize);
+        of.push(if leaves[a] >= leaves[b] { of[a] } else { of[b] });
+        leaves.push(leaves[a] + leaves[b]);
+    }
+    Some(super::Materials {
+        list: mesh.materials.clone(),
+        of,
     })
 }
 
