@@ -347,17 +347,26 @@ pub(super) fn bake(
             })
         })
         .collect();
+    use rayon::prelude::*;
+    // The triangles' means on every core (most of a big textured model's load), then summed at
+    // their corners in order.
+    let means: Vec<(Vec3, f32)> = tris
+        .par_iter()
+        .map(|t| {
+            let [p, q, r] = t.map(|i| Vec3::from_array(positions[i as usize]));
+            let area = (q - p).cross(r - p).length().max(f32::MIN_POSITIVE);
+            let [a, b, c] = t.map(|i| uvs[i as usize]);
+            let mean = samples
+                .iter()
+                .map(|w| image.sample(a * w[0] + b * w[1] + c * w[2]))
+                .sum::<Vec3>()
+                / samples.len() as f32;
+            (mean, area)
+        })
+        .collect();
     let mut sum = vec![Vec3::ZERO; uvs.len()];
     let mut weight = vec![0f32; uvs.len()];
-    for t in tris {
-        let [p, q, r] = t.map(|i| Vec3::from_array(positions[i as usize]));
-        let area = (q - p).cross(r - p).length().max(f32::MIN_POSITIVE);
-        let [a, b, c] = t.map(|i| uvs[i as usize]);
-        let mean = samples
-            .iter()
-            .map(|w| image.sample(a * w[0] + b * w[1] + c * w[2]))
-            .sum::<Vec3>()
-            / samples.len() as f32;
+    for (t, &(mean, area)) in tris.iter().zip(&means) {
         for &i in t {
             sum[i as usize] += mean * area;
             weight[i as usize] += area;
