@@ -545,3 +545,43 @@ fn obj_output_keeps_materials() {
     assert_eq!(uvs[back.triangles[0][1] as usize], glam::Vec2::X);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// PLY texture coordinates: an ASCII file with `texture_u texture_v` and the image its header
+/// names (`comment TextureFile`, as MeshLab writes) reads textured, `v` from the image's bottom;
+/// a mesh with one texture is written as binary PLY with `s t` and its image beside, and reads back
+/// the same; a missing image is a note.
+#[test]
+fn ply_texture_coordinates() {
+    let dir = std::env::temp_dir().join(format!("vunify-ply-uv-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("red.png"), &*png([255, 0, 0])).unwrap();
+    let ascii = "ply\nformat ascii 1.0\ncomment TextureFile red.png\nelement vertex 3\n\
+                 property float x\nproperty float y\nproperty float z\n\
+                 property float texture_u\nproperty float texture_v\n\
+                 element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                 0 0 0 0 0\n1 0 0 1 0\n0 1 0 0 1\n3 0 1 2\n";
+    std::fs::write(dir.join("t.ply"), ascii).unwrap();
+    let (m, report) = vunify::mesh::load(&dir.join("t.ply"), &CleanOptions::default()).unwrap();
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+    let uvs = m.uvs.as_ref().unwrap();
+    assert_eq!(uvs[..], [glam::Vec2::Y, glam::Vec2::ONE, glam::Vec2::ZERO]);
+    assert_eq!(m.textures.len(), 1);
+    assert_eq!(m.materials[0].base_color_texture, Some(0));
+    assert!(m.colors.as_ref().unwrap()[0].distance(Vec3::X) < 1e-5);
+    // Written (binary, `s t`, the image beside) and read back.
+    let out = dir.join("back.ply");
+    vunify::export::write_mesh(&m, &out).unwrap();
+    assert!(dir.join("back_texture0.png").exists());
+    let (back, report) = vunify::mesh::load(&out, &CleanOptions::default()).unwrap();
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+    assert_eq!(back.uvs, m.uvs);
+    assert_eq!(back.textures.len(), 1);
+    std::fs::remove_file(dir.join("red.png")).unwrap();
+    let (_, report) = vunify::mesh::load(&dir.join("t.ply"), &CleanOptions::default()).unwrap();
+    assert!(
+        report.notes.iter().any(|n| n.contains("red.png")),
+        "{:?}",
+        report.notes
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

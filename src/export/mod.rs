@@ -247,6 +247,12 @@ pub fn write_obj(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
 /// Binary little-endian PLY: `float x y z`, with `uchar red green blue` (the colours times 255, as
 /// most PLY tools expect) when the mesh has colours; `int` vertex indices.
 pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
+    ply_with_texture(mesh, None)
+}
+
+/// [`ply_bytes`]; with `texture`, the file its header names (`comment TextureFile`, as MeshLab
+/// writes) and `float s t` texture coordinates (`t` counted from the image's bottom).
+fn ply_with_texture(mesh: &Mesh, texture: Option<&str>) -> Vec<u8> {
     let mut header = String::new();
     let _ = writeln!(header, "ply\nformat binary_little_endian 1.0");
     let _ = writeln!(
@@ -261,8 +267,15 @@ pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
             crate::mesh::ONE_SIDED_COMMENT
         );
     }
+    if let Some(name) = texture {
+        let _ = writeln!(header, "comment TextureFile {name}");
+    }
+    let uvs = mesh.uvs.as_ref().filter(|_| texture.is_some());
     let _ = writeln!(header, "element vertex {}", mesh.positions.len());
     header.push_str("property float x\nproperty float y\nproperty float z\n");
+    if uvs.is_some() {
+        header.push_str("property float s\nproperty float t\n");
+    }
     if mesh.colors.is_some() {
         header.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
     }
@@ -278,6 +291,10 @@ pub fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
     for (i, p) in mesh.positions.iter().enumerate() {
         for x in p.to_array() {
             out.extend_from_slice(&x.to_le_bytes());
+        }
+        if let Some(uvs) = uvs {
+            out.extend_from_slice(&uvs[i].x.to_le_bytes());
+            out.extend_from_slice(&(1.0 - uvs[i].y).to_le_bytes());
         }
         if let Some(colors) = &mesh.colors {
             out.extend(
@@ -354,6 +371,18 @@ pub fn write_chain(levels: &[(&Mesh, serde_json::Value)], path: &Path) -> std::i
     )
 }
 
+/// The one base colour texture every textured vertex of `mesh` uses, if there is exactly one (PLY
+/// names one image).
+fn single_texture(mesh: &Mesh) -> Option<usize> {
+    let mut used = mesh
+        .texture_of
+        .as_ref()?
+        .iter()
+        .filter(|&&t| t != crate::mesh::NO_TEXTURE);
+    let first = *used.next()?;
+    used.all(|&t| t == first).then_some(first as usize)
+}
+
 fn is_glb(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb"))
@@ -379,7 +408,11 @@ pub fn write_mesh(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
     let stem = path
         .file_stem()
         .map_or_else(|| "mesh".into(), |n| n.to_string_lossy().into_owned());
-    let stem = stem.strip_suffix(".obj").unwrap_or(&stem).to_owned();
+    let stem = [".obj", ".ply", ".off"]
+        .iter()
+        .find_map(|e| stem.strip_suffix(e))
+        .unwrap_or(&stem)
+        .to_owned();
     let image_name = |k: usize, ext: &str| format!("{stem}_image{k}.{ext}");
     let bytes = match format {
         // A mesh with textures or materials: its MTL library and images beside it.
@@ -394,6 +427,13 @@ pub fn write_mesh(mesh: &Mesh, path: &Path) -> std::io::Result<()> {
             obj_with_materials(mesh, Some(&library)).into_bytes()
         }
         Format::Obj => obj_string(mesh).into_bytes(),
+        // A mesh with one base colour texture: the image beside it, named in its header.
+        Format::Ply if single_texture(mesh).is_some() => {
+            let t = single_texture(mesh).expect("checked");
+            let name = format!("{stem}_texture{t}.{}", gltf::mime_type(&mesh.textures[t]).1);
+            write_atomic(&path.with_file_name(&name), &mesh.textures[t])?;
+            ply_with_texture(mesh, Some(&name))
+        }
         Format::Ply => ply_bytes(mesh),
         Format::Off => off_string(mesh).into_bytes(),
         Format::Gltf if is_glb(path) => gltf::glb_bytes(mesh),

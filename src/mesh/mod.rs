@@ -412,6 +412,12 @@ pub fn load(path: &Path, options: &CleanOptions) -> Result<(Mesh, CleanReport), 
             notes = n;
             m
         })?
+    } else if format == Format::Ply {
+        let mut mesh = parse(&bytes, format, path)?;
+        if let Some(name) = ply::texture_file(&bytes) {
+            ply::attach_texture(&mut mesh, &name, path, &mut notes);
+        }
+        mesh
     } else {
         parse(&bytes, format, path)?
     };

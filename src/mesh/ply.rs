@@ -245,15 +245,14 @@ fn parse_with(bytes: &[u8], path: &Path, direct: bool) -> Result<Mesh, InputErro
     let has_colors = has("red") && has("green") && has("blue");
     let has_normals = has("nx") && has("ny") && has("nz");
     let has_radiosity = has("radiosity_r") && has("radiosity_g") && has("radiosity_b");
-    let color_scale = match vdef.properties.get("red").map(|p| &p.data_type) {
-        Some(PropertyType::Scalar(ScalarType::Float | ScalarType::Double)) => 1.0,
-        _ => 1.0 / 255.0,
-    };
+    let uv_names = UV_NAMES.iter().find(|[u, v]| has(u) && has(v));
+    let color_scale = color_scale(vdef);
 
     let mut positions = Vec::with_capacity(verts.len());
     let mut colors = Vec::new();
     let mut normals = Vec::new();
     let mut radiosity = Vec::new();
+    let mut uvs = Vec::new();
     let get3 = |v: &DefaultElement, k: usize, names: [&str; 3]| -> Result<Vec3, InputError> {
         let mut out = [0f32; 3];
         for (slot, name) in out.iter_mut().zip(names) {
@@ -279,14 +278,94 @@ fn parse_with(bytes: &[u8], path: &Path, direct: bool) -> Result<Mesh, InputErro
         if has_radiosity {
             radiosity.push(get3(v, k, ["radiosity_r", "radiosity_g", "radiosity_b"])?);
         }
+        if let Some([u, w]) = uv_names {
+            let uv = get3(v, k, [u, w, "x"])?;
+            uvs.push(uv_of(uv.x, uv.y));
+        }
     }
     let triangles = fan_triangles(faces, positions.len(), |k, msg| bad(fi, k, msg))?;
     Ok(Mesh {
         colors: has_colors.then_some(colors),
         normals: has_normals.then_some(normals),
         radiosity: has_radiosity.then_some(radiosity),
+        uvs: uv_names.map(|_| uvs),
         one_sided: one_sided(&header.comments),
         ..Mesh::from_triangles(positions, triangles)
+    })
+}
+
+/// What a colour property is multiplied by: 1 for floats, 1/255 for integers.
+fn color_scale(vertex: &ElementDef) -> f32 {
+    match vertex.properties.get("red").map(|p| &p.data_type) {
+        Some(PropertyType::Scalar(ScalarType::Float | ScalarType::Double)) => 1.0,
+        _ => 1.0 / 255.0,
+    }
+}
+
+/// The vertex properties read as texture coordinates, in the order they are looked for.
+const UV_NAMES: [[&str; 2]; 4] = [
+    ["s", "t"],
+    ["u", "v"],
+    ["texture_u", "texture_v"],
+    ["texture_s", "texture_t"],
+];
+
+/// A PLY texture coordinate as vunify keeps it: PLY files (MeshLab's) count `v` from the image's
+/// bottom, as OBJ does; vunify from its top, as glTF does.
+pub(super) fn uv_of(u: f32, v: f32) -> glam::Vec2 {
+    glam::Vec2::new(u, 1.0 - v)
+}
+
+/// Gives a PLY with texture coordinates the image its header names (`texture_file`, beside
+/// `path`): decoded, baked into the vertex colours as glTF textures are, and made the base colour
+/// texture of one material. A missing or unreadable image is a note.
+pub(super) fn attach_texture(mesh: &mut Mesh, name: &str, path: &Path, notes: &mut Vec<String>) {
+    let Some(uvs) = &mesh.uvs else {
+        notes.push(format!(
+            "its texture {name} left out: the vertices have no texture coordinates"
+        ));
+        return;
+    };
+    let file = path.parent().unwrap_or(Path::new(".")).join(name);
+    let image = std::fs::read(&file)
+        .map_err(|e| e.to_string())
+        .and_then(|b| super::gltf::decode_image(&b));
+    let image = match image {
+        Ok(image) => image,
+        Err(e) => {
+            notes.push(format!("its texture {name} left out ({e})"));
+            return;
+        }
+    };
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    let baked = super::gltf::bake(&image, &positions, uvs, &mesh.triangles);
+    let colors = match &mesh.colors {
+        Some(c) => c.iter().zip(&baked).map(|(a, b)| *a * *b).collect(),
+        None => baked,
+    };
+    let n = mesh.positions.len();
+    let vertex_colors = mesh.colors.is_some();
+    mesh.colors = Some(colors);
+    mesh.textures = vec![image.file.clone()];
+    mesh.texture_of = Some(vec![0; n]);
+    mesh.materials = vec![super::Material {
+        name: name.to_owned(),
+        base_color_texture: Some(0),
+        metallic_factor: 0.0,
+        vertex_colors,
+        ..super::Material::default()
+    }];
+    mesh.material_of = Some(vec![0; n]);
+}
+
+/// The image a textured PLY names in its header (`comment TextureFile NAME`, as MeshLab writes).
+pub fn texture_file(bytes: &[u8]) -> Option<String> {
+    let end = find_header_end(bytes)?;
+    let header = std::str::from_utf8(&bytes[..end]).ok()?;
+    header.lines().find_map(|line| {
+        let rest = line.trim().strip_prefix("comment")?.trim_start();
+        let name = rest.strip_prefix("TextureFile")?.trim();
+        (!name.is_empty()).then(|| name.to_owned())
     })
 }
 

@@ -18,6 +18,8 @@ enum Role {
     Color(usize),
     Normal(usize),
     Radiosity(usize),
+    /// Texture coordinates (`s t`, `u v`, `texture_u texture_v`, `texture_s texture_t`).
+    Uv(usize),
     Indices,
     Other,
 }
@@ -113,6 +115,7 @@ pub(super) fn parse(
                 mesh.colors = vertices.colors;
                 mesh.normals = vertices.normals;
                 mesh.radiosity = vertices.radiosity;
+                mesh.uvs = vertices.uvs;
                 at = end;
             }
             "face" => {
@@ -189,6 +192,7 @@ pub(super) fn parse(
         colors: mesh.colors,
         normals: mesh.normals,
         radiosity: mesh.radiosity,
+        uvs: mesh.uvs,
         ..Mesh::from_triangles(mesh.positions, mesh.triangles)
     })
 }
@@ -207,6 +211,8 @@ fn role(element: &str, name: &str) -> Role {
         ("vertex", "radiosity_r") => Role::Radiosity(0),
         ("vertex", "radiosity_g") => Role::Radiosity(1),
         ("vertex", "radiosity_b") => Role::Radiosity(2),
+        ("vertex", "s" | "u" | "texture_u" | "texture_s") => Role::Uv(0),
+        ("vertex", "t" | "v" | "texture_v" | "texture_t") => Role::Uv(1),
         ("face", "vertex_indices" | "vertex_index") => Role::Indices,
         _ => Role::Other,
     }
@@ -251,6 +257,7 @@ struct Vertices {
     colors: Option<Vec<Vec3>>,
     normals: Option<Vec<Vec3>>,
     radiosity: Option<Vec<Vec3>>,
+    uvs: Option<Vec<glam::Vec2>>,
 }
 
 /// `count` vertex records from `at`; with the byte after them.
@@ -273,6 +280,7 @@ fn vertices(
     }
     let (has_colors, has_normals) = (has(Role::Color), has(Role::Normal));
     let has_radiosity = has(Role::Radiosity);
+    let has_uvs = (0..2).all(|k| fields.iter().any(|f| f.role == Role::Uv(k)));
     let color_scale = match fields
         .iter()
         .find(|f| f.role == Role::Color(0))
@@ -312,16 +320,17 @@ fn vertices(
             ),
         ));
     }
-    // One record: position, colour, normal, radiosity.
-    let decode = |v: usize| -> Result<[Vec3; 4], InputError> {
+    // One record: position, colour, normal, radiosity, texture coordinates.
+    let decode = |v: usize| -> Result<[Vec3; 5], InputError> {
         let base = at + v * record;
-        let mut out = [Vec3::ZERO; 4];
+        let mut out = [Vec3::ZERO; 5];
         for (f, &offset) in fields.iter().zip(&offsets) {
             let (slot, k) = match f.role {
                 Role::Position(k) => (0, k),
                 Role::Color(k) if has_colors => (1, k),
                 Role::Normal(k) if has_normals => (2, k),
                 Role::Radiosity(k) if has_radiosity => (3, k),
+                Role::Uv(k) if has_uvs => (4, k),
                 _ => continue,
             };
             let PropertyType::Scalar(t) = &f.ty else {
@@ -340,7 +349,7 @@ fn vertices(
         out[1] *= color_scale;
         Ok(out)
     };
-    let records: Vec<[Vec3; 4]> = match (0..count)
+    let records: Vec<[Vec3; 5]> = match (0..count)
         .into_par_iter()
         .with_min_len(1 << 14)
         .map(decode)
@@ -357,6 +366,12 @@ fn vertices(
             colors: has_colors.then(|| pick(1)),
             normals: has_normals.then(|| pick(2)),
             radiosity: has_radiosity.then(|| pick(3)),
+            uvs: has_uvs.then(|| {
+                records
+                    .iter()
+                    .map(|r| super::ply::uv_of(r[4].x, r[4].y))
+                    .collect()
+            }),
         },
         end,
     ))
