@@ -19,6 +19,10 @@ command -v npm >/dev/null || ensure_packages nodejs npm
 if [ ! -d tools/npm/node_modules/gltf-validator ]; then
   npm install --prefix tools/npm --no-audit --no-fund --loglevel=error gltf-validator@2.0.0-dev.3.10
 fi
+# meshoptimizer's glTF tool: the tests read the quantized files it writes (and the bench compares).
+if [ ! -d tools/npm/node_modules/gltfpack ]; then
+  npm install --prefix tools/npm --no-audit --no-fund --loglevel=error gltfpack@1.3.0
+fi
 
 if [ -n "${VUNIFY_MODELS:-}" ]; then
   echo "scripts/test.sh: real models from VUNIFY_MODELS=$VUNIFY_MODELS"

@@ -585,3 +585,95 @@ fn ply_texture_coordinates() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Signed volume of the triangles whose material has a base colour texture (the instances of the
+/// scanned box, not the ground).
+fn textured_volume(m: &vunify::mesh::Mesh) -> f32 {
+    let of = m.material_of.as_ref().unwrap();
+    m.triangles
+        .iter()
+        .filter(|t| {
+            m.materials[of[t[0] as usize] as usize]
+                .base_color_texture
+                .is_some()
+        })
+        .map(|t| {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+/// The generated scene (`vunify::fixtures::textured_scene_glb`: a textured box instanced under
+/// nested transforms, one instance mirrored, on a ground of a second material) reads with every
+/// instance facing out (their volumes are the box's scaled: 0.5³ twice and 0.4³, none negative, so
+/// the mirrored one was rewound), its two materials and the texture; the copy meshoptimizer's
+/// gltfpack makes of it (quantized positions and coordinates, `KHR_mesh_quantization` and
+/// `KHR_texture_transform`) reads as the same model within its quantization.
+#[test]
+fn a_generated_scene_and_its_gltfpack_copy() {
+    let dir = std::env::temp_dir().join(format!("vunify-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (box_mesh, _) = vunify::mesh::clean(
+        common::subdivided(&vunify::fixtures::cuboid(Vec3::ONE), 2),
+        &CleanOptions::default(),
+    );
+    let scan = vunify::fixtures::textured_scan(&box_mesh);
+    let file = dir.join("scene.glb");
+    std::fs::write(&file, vunify::fixtures::textured_scene_glb(&scan)).unwrap();
+    let (m, report) = vunify::mesh::load(&file, &CleanOptions::default()).unwrap();
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+    assert_eq!(m.triangle_count(), 3 * box_mesh.triangle_count() + 2);
+    assert_eq!(m.materials.len(), 2);
+    assert_eq!(m.textures.len(), 1);
+    let want = 2.0 * 0.5f32.powi(3) + 0.4f32.powi(3);
+    assert!(
+        (textured_volume(&m) - want).abs() < 1e-4,
+        "{}",
+        textured_volume(&m)
+    );
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let gltfpack = root.join("tools/npm/node_modules/gltfpack/cli.js");
+    if !gltfpack.exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must have gltfpack (scripts/test.sh installs it)"
+        );
+        eprintln!("skipping the gltfpack copy: tools/npm/node_modules/gltfpack missing");
+        return;
+    }
+    let packed = dir.join("scene.packed.glb");
+    let out = std::process::Command::new("node")
+        .arg(&gltfpack)
+        .args([
+            "-i".as_ref(),
+            file.as_os_str(),
+            "-o".as_ref(),
+            packed.as_os_str(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json = String::from_utf8_lossy(&std::fs::read(&packed).unwrap()).into_owned();
+    assert!(
+        json.contains("KHR_mesh_quantization"),
+        "gltfpack quantized it"
+    );
+    let (q, report) = vunify::mesh::load(&packed, &CleanOptions::default()).unwrap();
+    assert!(report.notes.is_empty(), "{:?}", report.notes);
+    assert_eq!(q.triangle_count(), m.triangle_count());
+    assert_eq!(q.textures.len(), 1);
+    let (lo, hi) = (m.bounds(), q.bounds());
+    let d = m.diagonal();
+    assert!(lo.0.distance(hi.0) < 1e-3 * d && lo.1.distance(hi.1) < 1e-3 * d);
+    assert!(
+        (textured_volume(&q) - want).abs() < 0.01 * want,
+        "{}",
+        textured_volume(&q)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
