@@ -8,12 +8,20 @@
 @group(0) @binding(1) var textures: texture_2d_array<f32>;
 @group(0) @binding(2) var texture_sampler: sampler;
 
+// The model's materials (`GpuMaterial` in renderer.rs): base colour factor; alpha mode (0 opaque,
+// 1 mask, 2 blend) and mask cutoff.
+struct Material {
+    factor: vec4<f32>,
+    alpha: vec4<f32>,
+}
+@group(0) @binding(3) var<storage, read> materials: array<Material>;
+
 struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec2<f32>,   // snorm16x2, octahedral; (-1, -1) exactly: unknown
     @location(2) color: vec4<f32>,    // unorm8x4
     @location(3) debug: vec2<f32>,    // (object-space error, depth)
-    @location(4) uv_texture: vec3<f32>, // texture coordinates, and the texture's layer (-1: none)
+    @location(4) uv_texture: vec4<f32>, // texture coordinates, the texture's layer and the material (-1: none)
 }
 
 struct VertexOut {
@@ -25,6 +33,15 @@ struct VertexOut {
     // One texture a triangle: the provoking vertex's (a triangle's corners share one but where a
     // coarse node joins two).
     @location(4) @interpolate(flat) layer: i32,
+    @location(5) @interpolate(flat) material: i32,
+}
+
+// A 4 × 4 ordered-dither threshold at a pixel: blended surfaces are drawn as a screen door (as
+// much of each pixel block as their alpha), which needs no sorting of the triangles.
+fn dither(pixel: vec2<f32>) -> f32 {
+    var bayer = array<f32, 16>(0.0, 8.0, 2.0, 10.0, 12.0, 4.0, 14.0, 6.0, 3.0, 11.0, 1.0, 9.0, 15.0, 7.0, 13.0, 5.0);
+    let i = (u32(pixel.y) % 4u) * 4u + u32(pixel.x) % 4u;
+    return (bayer[i] + 0.5) / 16.0;
 }
 
 fn decode_octahedral(e: vec2<f32>) -> vec3<f32> {
@@ -65,6 +82,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.normal = decode_octahedral(v.normal);
     out.uv = v.uv_texture.xy;
     out.layer = i32(round(v.uv_texture.z));
+    out.material = i32(round(v.uv_texture.w));
     switch g.modes.x {
         case 1u: { out.color = vec4<f32>(v.color.rgb, 1.0); }
         // Baked: 8-bit display colours are sRGB-encoded; decoded here, the sRGB target re-encodes
@@ -95,8 +113,24 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     if (g.modes.x == 5u) {
         // A branch on a uniform keeps control flow uniform, as the mip level's derivatives need;
         // the other modes pay nothing for the texture.
-        let texel = textureSample(textures, texture_sampler, in.uv, max(in.layer, 0)).rgb;
-        base = select(base, texel, in.layer >= 0);
+        let texel = textureSample(textures, texture_sampler, in.uv, max(in.layer, 0));
+        var alpha = 1.0;
+        if (in.layer >= 0) {
+            base = texel.rgb;
+            alpha = texel.a;
+        }
+        // The material: its factor times the texture (an untextured vertex's colour has it
+        // already), and its alpha mode.
+        if (in.material >= 0) {
+            let m = materials[in.material];
+            if (in.layer >= 0) {
+                base = base * m.factor.rgb;
+            }
+            alpha = alpha * m.factor.a;
+            if ((m.alpha.x == 1.0 && alpha < m.alpha.y) || (m.alpha.x == 2.0 && alpha < dither(in.clip.xy))) {
+                discard;
+            }
+        }
     } else if (g.modes.x == 6u) {
         let cell = floor(in.uv * 8.0);
         let odd = (i32(cell.x) + i32(cell.y)) & 1;

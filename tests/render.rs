@@ -745,4 +745,49 @@ fn textures_are_drawn_from_the_tree() {
             "{color_by:?}: right {right:?}"
         );
     }
+    // Materials: the factor multiplies the texture; an alpha mask below its cutoff is not drawn;
+    // a blended surface at alpha 0.5 covers half of each 4 × 4 pixel block.
+    for (mode, alpha, factor) in [
+        (vunify::mesh::AlphaMode::Opaque, 1.0, [0.5, 1.0, 1.0, 1.0]),
+        (vunify::mesh::AlphaMode::Mask, 0.3, [1.0, 1.0, 1.0, 0.3]),
+        (vunify::mesh::AlphaMode::Blend, 0.5, [1.0, 1.0, 1.0, 0.5]),
+    ] {
+        let mut m = mesh.clone();
+        m.materials = vec![vunify::mesh::Material {
+            base_color_factor: factor,
+            base_color_texture: Some(0),
+            alpha_mode: mode,
+            ..Default::default()
+        }];
+        m.material_of = Some(vec![0; m.positions.len()]);
+        let h = Hierarchy::new(&tree_of(&m));
+        r.set_hierarchy(&gpu.device, &gpu.queue, &h);
+        let mut all = Front::new(&h);
+        all.refine_all(&h);
+        r.set_triangles(&gpu.device, &gpu.queue, all.indices());
+        let options = DrawOptions {
+            color_by: vunify::render::ColorBy::Texture,
+            ..Default::default()
+        };
+        let image = job::frame(&gpu, &mut r, &target, &camera, &options)
+            .unwrap()
+            .0;
+        // The 16 pixels of one block inside the red half: how many are drawn red.
+        let red = (56..60)
+            .flat_map(|x| (96..100).map(move |y| (x, y)))
+            .filter(|&(x, y)| {
+                let p = image.get_pixel(x, y).0;
+                p[0] > 60 && p[0] > 3 * p[2].max(10)
+            })
+            .count();
+        let left = image.get_pixel(60, 100).0;
+        match mode {
+            vunify::mesh::AlphaMode::Opaque => {
+                assert_eq!(red, 16);
+                assert!(left[0] < 200, "the factor halves red: {left:?}");
+            }
+            vunify::mesh::AlphaMode::Mask => assert_eq!(red, 0, "alpha {alpha} under the cutoff"),
+            vunify::mesh::AlphaMode::Blend => assert_eq!(red, 8, "alpha {alpha}: half the block"),
+        }
+    }
 }

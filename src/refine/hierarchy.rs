@@ -26,11 +26,15 @@ pub struct Hierarchy {
     pub normal: Vec<[i16; 2]>,
     /// Linear RGB of every node as RGBA8; empty when the model has no colours.
     pub color: Vec<[u8; 4]>,
-    /// Every node's texture coordinates and texture (`[u, v, texture]`, the texture as a float,
-    /// −1 for none); empty when the model has no textures.
-    pub uv_texture: Vec<[f32; 3]>,
+    /// Every node's texture coordinates, texture and material (`[u, v, texture, material]`, the
+    /// texture an index into `textures` and the material into `materials`, as floats, −1 for
+    /// none); empty when the model has neither textures nor materials.
+    pub uv_texture: Vec<[f32; 4]>,
     /// The base colour textures' image files (PNG or JPEG, sRGB).
     pub textures: Vec<std::sync::Arc<Vec<u8>>>,
+    /// The model's materials (their factors and alpha modes are drawn; their textures index the
+    /// tree's images, not `textures`).
+    pub materials: Vec<crate::mesh::Material>,
     /// What the view tests read of an internal node `k + leaf_count`, together (see [`Bounds`]).
     pub internal_bounds: Vec<Bounds>,
     /// What a split or unify of internal node `k + leaf_count` reads, in one cache line's quarter (see
@@ -112,7 +116,7 @@ impl Hierarchy {
             .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
             .collect();
         let color = colors_of(tree, &old_of);
-        let (uv_texture, textures) = appearance_of(tree, &old_of);
+        let (uv_texture, textures, materials) = appearance_of(tree, &old_of);
         let internal: Vec<&crate::vtree::Node> = (n..count as u32).map(node).collect();
         let internal_children: Vec<[u32; 2]> =
             internal.iter().map(|x| x.children.map(renumber)).collect();
@@ -204,6 +208,7 @@ impl Hierarchy {
             color,
             uv_texture,
             textures,
+            materials,
             internal_bounds: internal
                 .iter()
                 .enumerate()
@@ -513,40 +518,56 @@ fn runtime_cone(x: &crate::vtree::Node, flip: f32) -> ([i16; 2], f32) {
 }
 
 /// A node's colour as 8-bit RGBA.
-/// Every node's `[u, v, texture]` in the hierarchy's order (`old_of`: the tree's id of each),
-/// the texture as a float, −1 for none, and the textures; empty for an untextured tree.
+/// Every node's `[u, v, texture, material]` in the hierarchy's order (`old_of`: the tree's id of
+/// each), the texture as its layer among the drawn textures and both as floats, −1 for none; and the
+/// drawn textures and the materials; empty for a tree with neither textures nor materials.
 #[allow(clippy::type_complexity)]
 fn appearance_of(
     tree: &VertexTree,
     old_of: &[u32],
-) -> (Vec<[f32; 3]>, Vec<std::sync::Arc<Vec<u8>>>) {
-    let Some(a) = &tree.appearance else {
-        return (Vec::new(), Vec::new());
+) -> (
+    Vec<[f32; 4]>,
+    Vec<std::sync::Arc<Vec<u8>>>,
+    Vec<crate::mesh::Material>,
+) {
+    let Some(materials) = (tree.appearance.is_some() || tree.materials.is_some()).then(|| {
+        tree.materials
+            .as_ref()
+            .map_or_else(Vec::new, |m| m.list.clone())
+    }) else {
+        return (Vec::new(), Vec::new(), Vec::new());
     };
     // Only base colour textures are drawn: each gets a layer (the other maps a material carries
     // are not uploaded).
-    let mut layer = vec![-1.0f32; a.textures.len()];
+    let mut layer = Vec::new();
     let mut drawn = Vec::new();
-    for &t in &a.texture_of {
-        if t != crate::mesh::NO_TEXTURE && layer[t as usize] < 0.0 {
-            layer[t as usize] = drawn.len() as f32;
-            drawn.push(a.textures[t as usize].clone());
+    if let Some(a) = &tree.appearance {
+        layer = vec![-1.0f32; a.textures.len()];
+        for &t in &a.texture_of {
+            if t != crate::mesh::NO_TEXTURE && layer[t as usize] < 0.0 {
+                layer[t as usize] = drawn.len() as f32;
+                drawn.push(a.textures[t as usize].clone());
+            }
         }
     }
     let uv_texture = old_of
         .iter()
         .map(|&old| {
             let old = old as usize;
+            let material = tree.materials.as_ref().map_or(-1.0, |m| m.of[old] as f32);
+            let Some(a) = &tree.appearance else {
+                return [0.0, 0.0, -1.0, material];
+            };
             let t = a.texture_of[old];
             let t = if t == crate::mesh::NO_TEXTURE {
                 -1.0
             } else {
                 layer[t as usize]
             };
-            [a.uvs[old][0], a.uvs[old][1], t]
+            [a.uvs[old][0], a.uvs[old][1], t, material]
         })
         .collect();
-    (uv_texture, drawn)
+    (uv_texture, drawn, materials)
 }
 
 /// Every node's display colour in the hierarchy's order; empty for a tree without colours.

@@ -71,7 +71,7 @@ struct Model {
     normals: wgpu::Buffer,
     colors: wgpu::Buffer,
     debug: wgpu::Buffer,
-    /// `[u, v, texture]` per node (texture −1: none; all −1 for an untextured model).
+    /// `[u, v, texture, material]` per node (−1: none; all −1 for a model with neither).
     uv_texture: wgpu::Buffer,
     has_colors: bool,
     has_textures: bool,
@@ -111,7 +111,7 @@ fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 5] {
     const NORMAL: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![1 => Snorm16x2];
     const COLOR: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Unorm8x4];
     const DEBUG: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![3 => Float32x2];
-    const UV_TEXTURE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![4 => Float32x3];
+    const UV_TEXTURE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![4 => Float32x4];
     let layout =
         |stride: u64, attributes: &'static [wgpu::VertexAttribute]| wgpu::VertexBufferLayout {
             array_stride: stride,
@@ -123,7 +123,7 @@ fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 5] {
         layout(4, &NORMAL),
         layout(4, &COLOR),
         layout(8, &DEBUG),
-        layout(12, &UV_TEXTURE),
+        layout(16, &UV_TEXTURE),
     ]
 }
 
@@ -239,7 +239,14 @@ impl Renderer {
         });
         let sampler = super::textures::sampler(device);
         let none = super::textures::placeholder(device);
-        let bind_group = globals_bind_group(device, &bind_layout, &globals, &none, &sampler);
+        let bind_group = globals_bind_group(
+            device,
+            &bind_layout,
+            &globals,
+            &none,
+            &sampler,
+            &materials_buffer(device, &[]),
+        );
         let timer = Timer::new(device);
         let chunk_bytes = device.limits().max_buffer_size.min(MAX_CHUNK_BYTES);
         Renderer {
@@ -295,10 +302,10 @@ impl Renderer {
             }
         }
         let has_textures = !h.textures.is_empty() && !h.uv_texture.is_empty();
-        let uv_texture: Vec<[f32; 3]> = if has_textures {
-            h.uv_texture.clone()
+        let uv_texture: Vec<[f32; 4]> = if h.uv_texture.is_empty() {
+            vec![[0.0, 0.0, -1.0, -1.0]; h.position.len()]
         } else {
-            vec![[0.0, 0.0, -1.0]; h.position.len()]
+            h.uv_texture.clone()
         };
         // Textures upload once per model; the bind group then points at them.
         let view = if has_textures {
@@ -306,12 +313,14 @@ impl Renderer {
         } else {
             super::textures::placeholder(device)
         };
+        let materials = materials_buffer(device, &h.materials);
         self.bind_group = globals_bind_group(
             device,
             &self.bind_layout,
             &self.globals,
             &view,
             &self.sampler,
+            &materials,
         );
         let debug: Vec<Debug> = (0..h.node_count())
             .map(|u| Debug {
@@ -728,6 +737,7 @@ fn globals_bind_group(
     globals: &wgpu::Buffer,
     textures: &wgpu::TextureView,
     sampler: &wgpu::Sampler,
+    materials: &wgpu::Buffer,
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("globals"),
@@ -745,11 +755,59 @@ fn globals_bind_group(
                 binding: 2,
                 resource: wgpu::BindingResource::Sampler(sampler),
             },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: materials.as_entire_binding(),
+            },
         ],
     })
 }
 
-/// The mesh pass's bind group layout: the globals (0), the texture array (1) and its sampler (2).
+/// A material as the mesh pass reads it (`Material` in mesh.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuMaterial {
+    /// Base colour factor, linear RGBA.
+    factor: [f32; 4],
+    /// Alpha mode (0 opaque, 1 mask, 2 blend), mask cutoff, and two unused.
+    alpha: [f32; 4],
+}
+
+/// The materials' storage buffer (one opaque white material for a model without any: the pass
+/// binds one either way).
+fn materials_buffer(device: &wgpu::Device, materials: &[crate::mesh::Material]) -> wgpu::Buffer {
+    use crate::mesh::AlphaMode;
+    let mut gpu: Vec<GpuMaterial> = materials
+        .iter()
+        .map(|m| GpuMaterial {
+            factor: m.base_color_factor,
+            alpha: [
+                match m.alpha_mode {
+                    AlphaMode::Opaque => 0.0,
+                    AlphaMode::Mask => 1.0,
+                    AlphaMode::Blend => 2.0,
+                },
+                m.alpha_cutoff,
+                0.0,
+                0.0,
+            ],
+        })
+        .collect();
+    if gpu.is_empty() {
+        gpu.push(GpuMaterial {
+            factor: [1.0; 4],
+            alpha: [0.0; 4],
+        });
+    }
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("materials"),
+        contents: bytemuck::cast_slice(&gpu),
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+/// The mesh pass's bind group layout: the globals (0), the texture array (1), its sampler (2) and
+/// the materials (3).
 fn globals_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("globals"),
@@ -778,6 +836,16 @@ fn globals_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 binding: 2,
                 visibility: wgpu::ShaderStages::FRAGMENT,
                 ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
                 count: None,
             },
         ],
