@@ -328,8 +328,13 @@ fn carried_image(image: &gltf::Image, buffers: &[Vec<u8>], base: &Path) -> Resul
     Ok(bytes)
 }
 
+/// A triangle whose texture footprint is smaller than this many texels is sampled once, at its
+/// centroid: a bilinear sample there already averages the four texels around it.
+const SMALL_FOOTPRINT: f32 = 2.0;
+
 /// Each vertex's colour from a texture: the area-weighted mean, over the triangles around it, of
-/// the texture's mean over each triangle's UV footprint (15 samples a triangle). Sampling at the
+/// the texture's mean over each triangle's UV footprint (15 samples a triangle, one for a footprint
+/// under [`SMALL_FOOTPRINT`] texels). Sampling at the
 /// vertex alone reads whatever lies under its UV, often a chart's border (the Deccer cubes'
 /// corners are white on blue faces); the mean is what a coarse level of the triangle shows.
 pub(super) fn bake(
@@ -356,11 +361,19 @@ pub(super) fn bake(
             let [p, q, r] = t.map(|i| Vec3::from_array(positions[i as usize]));
             let area = (q - p).cross(r - p).length().max(f32::MIN_POSITIVE);
             let [a, b, c] = t.map(|i| uvs[i as usize]);
-            let mean = samples
-                .iter()
-                .map(|w| image.sample(a * w[0] + b * w[1] + c * w[2]))
-                .sum::<Vec3>()
-                / samples.len() as f32;
+            // A footprint of a texel or two is one bilinear sample at its centroid (a scan's
+            // triangles mostly are: the textured dragon's load spent a third of itself here).
+            let texels =
+                0.5 * (b - a).perp_dot(c - a).abs() * image.width as f32 * image.height as f32;
+            let mean = if texels < SMALL_FOOTPRINT {
+                image.sample((a + b + c) / 3.0)
+            } else {
+                samples
+                    .iter()
+                    .map(|w| image.sample(a * w[0] + b * w[1] + c * w[2]))
+                    .sum::<Vec3>()
+                    / samples.len() as f32
+            };
             (mean, area)
         })
         .collect();

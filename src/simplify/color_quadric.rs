@@ -157,6 +157,31 @@ impl LocalColorQuadric {
         }
     }
 
+    /// The mean squared colour residual of `a` and `b` summed (see [`ColorQuadric::mean_residual`])
+    /// at one point, given as `xa` from `a`'s vertex and `xb` from `b`'s: what pricing a merge
+    /// needs, evaluated where each quadric is, without moving either to a common origin.
+    pub fn pair_mean_residual(
+        a: &LocalColorQuadric,
+        xa: DVec3,
+        b: &LocalColorQuadric,
+        xb: DVec3,
+    ) -> f64 {
+        let w = a.spatial.weight() as f64 + b.spatial.weight() as f64;
+        if w <= 0.0 {
+            return 0.0;
+        }
+        let spatial = a.spatial.get().eval(xa) + b.spatial.get().eval(xb);
+        let linear =
+            |l: &[f32; 4], x: DVec3| glam::Vec4::from_array(*l).as_dvec4().dot(x.extend(1.0));
+        let fitted: f64 = (0..3)
+            .map(|k| {
+                let s = linear(&a.linear[k], xa) + linear(&b.linear[k], xb);
+                s * s
+            })
+            .sum();
+        (spatial - fitted / w).max(0.0) / w
+    }
+
     /// Back in `f64`, about the vertex at `at`, then moved to be about `origin`.
     pub fn about(&self, at: Vec3, origin: DVec3) -> ColorQuadric {
         ColorQuadric {
@@ -227,6 +252,24 @@ mod tests {
             DVec3::new(1.0, 0.0, 0.0),
         ] {
             let (want, got) = (q.residual(x), back.residual(x - origin));
+            assert!((want - got).abs() < 1e-6, "{x}: {want} vs {got}");
+        }
+        // Two such quadrics at different vertices, evaluated in place, as pricing sums them.
+        let (at2, origin2) = (Vec3::new(0.0, 1.0, 0.0), DVec3::new(0.5, 0.25, 0.0));
+        let local2 = LocalColorQuadric::new(&q.shifted(at2.as_dvec3()));
+        let sum = local.about(at, origin2) + local2.about(at2, origin2);
+        for x in [
+            DVec3::ZERO,
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(1.0, 0.2, 0.3),
+        ] {
+            let want = sum.mean_residual(x - origin2);
+            let got = LocalColorQuadric::pair_mean_residual(
+                &local,
+                x - at.as_dvec3(),
+                &local2,
+                x - at2.as_dvec3(),
+            );
             assert!((want - got).abs() < 1e-6, "{x}: {want} vs {got}");
         }
         // x·y is y on the lower triangle and x on the upper: they disagree off the diagonal.

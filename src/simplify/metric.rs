@@ -246,9 +246,10 @@ impl Pricing {
         };
         let color = match colors {
             Some([ca, cb]) if self.color_scale > 0.0 => {
-                let q = ca.about(a.position, mid) + cb.about(b.position, mid);
                 let scale = self.color_scale as f64;
-                scale * scale * q.mean_residual(offset)
+                let residual =
+                    LocalColorQuadric::pair_mean_residual(ca, offset - ra, cb, offset - rb);
+                scale * scale * residual
             }
             _ => 0.0,
         };

@@ -3,7 +3,7 @@
 
 use super::node::{FanTriangle, Merged, SAMPLES, Samples, fan_of, finish_node};
 use super::passes::{PassMarks, SlotSet};
-use super::pricing::PREFETCH_AHEAD;
+use super::pricing::{PREFETCH_AHEAD, prefetch_end};
 use super::queue::{Entry, NO_EDGE, SLOT, key};
 use super::{Builder, NONE};
 use crate::simplify::collapse::gather_neighbors;
@@ -179,14 +179,14 @@ impl FinishBatch {
                 for q in m.pending.into_iter().filter(|&q| q != NONE) {
                     crate::prefetch(&view.leaves[q as usize]);
                 }
-                crate::prefetch(&view.ends[m.slot as usize]);
-                crate::prefetch(&view.ends[m.gone as usize]);
+                prefetch_end(view.ends, view.colors, m.slot as usize);
+                prefetch_end(view.ends, view.colors, m.gone as usize);
             }
             if let Some(&end) = self.fan_ends.get(i + PREFETCH_AHEAD / 2) {
                 let start = self.fan_ends[i + PREFETCH_AHEAD / 2 - 1];
                 for t in &self.fans[start as usize..end as usize] {
                     for v in t.slots {
-                        crate::prefetch(&view.ends[v as usize]);
+                        prefetch_end(view.ends, view.colors, v as usize);
                     }
                 }
             }

@@ -645,13 +645,23 @@ pub(super) fn input_color(c: Vec3) -> Vec3 {
 /// about the vertex.
 fn color_quadrics(mesh: &Mesh, colors: &[Vec3]) -> Vec<LocalColorQuadric> {
     let mut sums = vec![ColorQuadric::default(); mesh.positions.len()];
-    for t in &mesh.triangles {
-        let q = ColorQuadric::from_triangle(
-            t.map(|v| mesh.positions[v as usize]),
-            t.map(|v| input_color(colors[v as usize])),
-        );
-        for v in t {
-            sums[*v as usize] += q;
+    // The triangles' quadrics on every core, a chunk at a time (so that they never all sit in
+    // memory, 176 bytes each), summed into their corners on one.
+    let mut chunk = Vec::new();
+    for triangles in mesh.triangles.chunks(1 << 15) {
+        triangles
+            .par_iter()
+            .map(|t| {
+                ColorQuadric::from_triangle(
+                    t.map(|v| mesh.positions[v as usize]),
+                    t.map(|v| input_color(colors[v as usize])),
+                )
+            })
+            .collect_into_vec(&mut chunk);
+        for (t, q) in triangles.iter().zip(&chunk) {
+            for v in t {
+                sums[*v as usize] += *q;
+            }
         }
     }
     sums.par_iter()

@@ -3,6 +3,8 @@
 use super::Builder;
 use super::queue::{Entry, NO_EDGE, key};
 use crate::simplify::collapse::Neighbor;
+use crate::simplify::color_quadric::LocalColorQuadric;
+use crate::simplify::metric::PairEnd;
 use rayon::prelude::*;
 
 /// The sequential merge loop prefetches the slots of the merge this many ahead, the triangles
@@ -16,6 +18,17 @@ pub(super) const PRICE_RUN: usize = 256;
 /// Slots priced per parallel batch (see [`Builder::price_around`]).
 pub(super) const PRICE_CHUNK: usize = 1 << 14;
 
+/// Asks for what pricing a pair reads of slot `s`: its end (one cache line) and, on a mesh with
+/// colours, its colour quadric (92 bytes: both lines it may span). Only a hint.
+pub(super) fn prefetch_end(ends: &[PairEnd], colors: &[LocalColorQuadric], s: usize) {
+    crate::prefetch(&ends[s]);
+    if let Some(c) = colors.get(s) {
+        let address = c as *const LocalColorQuadric as usize;
+        crate::prefetch_address(address);
+        crate::prefetch_address(address + std::mem::size_of::<LocalColorQuadric>() - 1);
+    }
+}
+
 impl Builder<'_> {
     /// `pairs` (`(a, b)` with `a < b`, sorted by `a`), priced in parallel.
     pub(super) fn price_pairs(&mut self, pairs: &[(u32, u32)], edge: bool) -> Vec<Entry> {
@@ -27,7 +40,7 @@ impl Builder<'_> {
                 run.iter().enumerate().map(move |(i, &(a, b))| {
                     // Sorted by `a`, so the `b` are the scattered ends: load a few ahead.
                     if let Some(&(_, ahead)) = run.get(i + PREFETCH_AHEAD) {
-                        crate::prefetch(&this.ends[ahead as usize]);
+                        prefetch_end(&this.ends, &this.colors, ahead as usize);
                     }
                     Entry {
                         cost: key(this.price(a, b, edge).cost),
@@ -82,7 +95,7 @@ impl Builder<'_> {
                         if let Some(&ahead) = run.get(i + 1) {
                             self.collapser.neighbors(ahead, &mut next);
                             for nb in &next {
-                                crate::prefetch(&self.ends[nb.slot as usize]);
+                                prefetch_end(&self.ends, &self.colors, nb.slot as usize);
                             }
                         }
                         for nb in here.iter().filter(|nb| keep(a, nb.slot)) {
