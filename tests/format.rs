@@ -65,7 +65,35 @@ fn wrong_version_is_named() {
         e.kind,
         vunify::vtree::FormatErrorKind::WrongVersion { found: 7 }
     );
-    assert!(e.to_string().contains("version 7"));
+    assert!(e.to_string().contains("version 7"), "{e}");
+    assert!(e.to_string().contains("newer vunify"), "{e}");
+    bytes[8] = 0;
+    let e = vtree::read_bytes(&bytes, Path::new("v.vtree")).unwrap_err();
+    assert!(
+        e.to_string().contains("rebuild it with `vunify build`"),
+        "{e}"
+    );
+}
+
+/// A tree without appearance is written as version 1, which readers from before textures read; a
+/// textured one as version 2, and this build reads both.
+#[test]
+fn appearance_bumps_the_version() {
+    let plain = small_tree();
+    let bytes = vtree::to_bytes(&plain);
+    assert_eq!(bytes[8..12], 1u32.to_le_bytes());
+    assert!(vtree::read_bytes(&bytes, Path::new("v1.vtree")).is_ok());
+    let mut textured = small_tree();
+    let n = textured.nodes.len();
+    textured.appearance = Some(vtree::Appearance {
+        uvs: vec![[0.25, 0.5]; n],
+        texture_of: vec![vunify::mesh::NO_TEXTURE; n],
+        textures: Vec::new(),
+    });
+    let bytes = vtree::to_bytes(&textured);
+    assert_eq!(bytes[8..12], 2u32.to_le_bytes());
+    let back = vtree::read_bytes(&bytes, Path::new("v2.vtree")).unwrap();
+    assert_eq!(back.appearance, textured.appearance);
 }
 
 /// A well-formed file (checksums fixed up) whose tree is wrong is still rejected: the reader checks the

@@ -10,7 +10,12 @@ use crate::simplify::Metric;
 use std::path::{Path, PathBuf};
 
 pub const MAGIC: [u8; 8] = *b"VUNIFYVT";
-pub const FORMAT_VERSION: u32 = 1;
+/// The newest format version this build reads and writes: 2, a tree with appearance (the optional
+/// `UVTX`, `TEXS` and `MATL` sections); a tree without them is written as version 1, which readers
+/// from before appearance read too.
+pub const FORMAT_VERSION: u32 = 2;
+/// The oldest version this build reads.
+pub const OLDEST_FORMAT_VERSION: u32 = 1;
 const TABLE_ENTRY: usize = 32;
 const HEADER: usize = 16;
 /// Readers of this version accept a few unknown sections (skipped) for forward compatibility.
@@ -122,7 +127,14 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
     let table_end = HEADER + TABLE_ENTRY * sections.len();
     let mut head = Vec::with_capacity(table_end + 4);
     head.extend_from_slice(&MAGIC);
-    head.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    // Appearance is what version 2 added: a reader from before it would skip those sections as
+    // unknown and draw the model untextured, so it is told the file is newer instead.
+    let version = if sections.len() > SECTIONS.len() {
+        FORMAT_VERSION
+    } else {
+        OLDEST_FORMAT_VERSION
+    };
+    head.extend_from_slice(&version.to_le_bytes());
     head.extend_from_slice(&(sections.len() as u32).to_le_bytes());
     let mut offset = (table_end + 4) as u64;
     for (tag, s) in tags.iter().zip(&sections) {
@@ -385,11 +397,18 @@ fn sections<'b>(
     }
     let c = Cursor { bytes };
     let version = c.u32(8);
-    if version != FORMAT_VERSION {
+    if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
+        let advice = if version > FORMAT_VERSION {
+            "it was written by a newer vunify: update vunify, or rebuild it with this one's `vunify build`"
+        } else {
+            "rebuild it with `vunify build`"
+        };
         return Err(fail.at(
             Some(8),
             FormatErrorKind::WrongVersion { found: version },
-            format!("format version {version}; this build reads version {FORMAT_VERSION}"),
+            format!(
+                "format version {version}; this build reads versions {OLDEST_FORMAT_VERSION} to {FORMAT_VERSION}: {advice}"
+            ),
         ));
     }
     let count = c.u32(12);

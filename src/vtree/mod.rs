@@ -19,7 +19,8 @@ pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build};
 pub use check::{TreeProblem, check, check_cut};
 pub use extract::{Cut, cut_at_bound, cut_at_error, cut_at_merges, cut_at_triangles};
 pub use format::{
-    FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, read, read_bytes, to_bytes, write,
+    FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, OLDEST_FORMAT_VERSION, read, read_bytes,
+    to_bytes, write,
 };
 
 use crate::simplify::Metric;
