@@ -4,7 +4,7 @@
 #   scripts/run.sh [vunify arguments…]
 #
 # Installs the Vulkan driver (Mesa lavapipe) and the X11 libraries the window needs when they are
-# missing, then runs vunify: with no arguments it builds the bundled cessna's tree and opens the viewer
+# missing, then runs vunify: with no arguments it builds the bundled water bottle's tree (textured glTF) and opens the viewer
 # on it, or, with no display, says so and renders the default camera path headless to out/default-path/.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -664,3 +664,40 @@ fn extract_a_lod_chain() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains(".glb or .gltf"));
     assert!(!obj.exists());
 }
+
+/// `vunify` with no command and no display (what `scripts/run.sh` does on a headless machine): it
+/// says so, builds the bundled textured water bottle's tree and renders the default camera path.
+#[test]
+fn the_default_job_renders_the_bundled_model_headless() {
+    let dir = tmp("default-job");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .current_dir(&dir)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        // Without a GPU outside CI, the build must still have happened and the error be the adapter's.
+        assert!(
+            std::env::var_os("CI").is_none() && err.contains("no Vulkan adapter"),
+            "{stdout}\n{err}"
+        );
+    } else {
+        assert!(
+            dir.join("out/default-path/contact_sheet.png").is_file(),
+            "{stdout}"
+        );
+    }
+    assert!(
+        stdout.contains("WaterBottle.glb") && stdout.contains("no display"),
+        "{stdout}"
+    );
+    let tree = vunify::vtree::read(&dir.join("out/WaterBottle.vtree")).unwrap();
+    let appearance = tree.appearance.expect("the bundled model is textured");
+    assert!(!appearance.textures.is_empty());
+    assert!(tree.materials.is_some());
+}

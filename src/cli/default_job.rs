@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 use vunify::mesh::CleanOptions;
 use vunify::vtree::BuildOptions;
 
-/// The bundled model (MIT-licensed, see assets/README.md), compiled into the binary so that an
-/// installed `vunify` needs no source tree.
-const BUNDLED_MODEL: &[u8] = include_bytes!("../../assets/cessna.obj");
-const BUNDLED_NAME: &str = "cessna.obj";
+/// The bundled model (the glTF sample water bottle, textured, CC0: see assets/README.md), compiled
+/// into the binary so that an installed `vunify` needs no source tree.
+const BUNDLED_MODEL: &[u8] = include_bytes!("../../assets/WaterBottle.glb");
+const BUNDLED_NAME: &str = "WaterBottle.glb";
 
 /// Where the default job writes: `out/` in the current directory.
 fn out_dir() -> PathBuf {
@@ -18,7 +18,7 @@ fn out_dir() -> PathBuf {
 }
 
 /// The bundled model as a file (the viewer's compare view rebuilds it with other metrics): written
-/// to `out/cessna.obj` unless a file with the same bytes is already there.
+/// to `out/WaterBottle.glb` unless a file with the same bytes is already there.
 pub fn bundled_model() -> Result<PathBuf> {
     let dir = out_dir();
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -32,7 +32,7 @@ pub fn bundled_model() -> Result<PathBuf> {
 
 pub fn run() -> Result<()> {
     let model = bundled_model()?;
-    let tree_file = out_dir().join("cessna.vtree");
+    let tree_file = out_dir().join(Path::new(BUNDLED_NAME).with_extension("vtree"));
     println!("vunify: building the vertex tree of the bundled model {BUNDLED_NAME}");
     super::build::build_and_write(
         &model,
