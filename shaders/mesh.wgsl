@@ -9,7 +9,7 @@
 @group(0) @binding(2) var texture_sampler: sampler;
 
 // The model's materials (`GpuMaterial` in renderer.rs): base colour factor; alpha mode (0 opaque,
-// 1 mask, 2 blend) and mask cutoff.
+// 1 mask, 2 blend), mask cutoff and double-sided (1) or not (0).
 struct Material {
     factor: vec4<f32>,
     alpha: vec4<f32>,
@@ -128,6 +128,10 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
             }
             alpha = alpha * m.factor.a;
             if ((m.alpha.x == 1.0 && alpha < m.alpha.y) || (m.alpha.x == 2.0 && alpha < dither(in.clip.xy))) {
+                discard;
+            }
+            // glTF: a material that is not double-sided shows its front faces only.
+            if (m.alpha.z == 0.0 && !front) {
                 discard;
             }
         }

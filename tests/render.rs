@@ -790,4 +790,39 @@ fn textures_are_drawn_from_the_tree() {
             vunify::mesh::AlphaMode::Blend => assert_eq!(red, 8, "alpha {alpha}: half the block"),
         }
     }
+    // Seen from behind (where the red half is on the right), a single-sided material is culled
+    // and a double-sided one drawn.
+    let behind = vunify::refine::Camera::looking_at(
+        Vec3::new(0.5, 0.5, -1.2),
+        Vec3::new(0.5, 0.5, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        size,
+        0.01,
+        10.0,
+    );
+    for double_sided in [false, true] {
+        let mut m = mesh.clone();
+        m.materials = vec![vunify::mesh::Material {
+            base_color_texture: Some(0),
+            double_sided,
+            ..Default::default()
+        }];
+        m.material_of = Some(vec![0; m.positions.len()]);
+        let h = Hierarchy::new(&tree_of(&m));
+        r.set_hierarchy(&gpu.device, &gpu.queue, &h);
+        let mut all = Front::new(&h);
+        all.refine_all(&h);
+        r.set_triangles(&gpu.device, &gpu.queue, all.indices());
+        let options = DrawOptions {
+            color_by: vunify::render::ColorBy::Texture,
+            ..Default::default()
+        };
+        let image = job::frame(&gpu, &mut r, &target, &behind, &options)
+            .unwrap()
+            .0;
+        let right = image.get_pixel(140, 100).0;
+        let red = right[0] > 60 && right[0] > 3 * right[2].max(10);
+        assert_eq!(red, double_sided, "double-sided {double_sided}: {right:?}");
+    }
 }

@@ -769,7 +769,7 @@ fn globals_bind_group(
 struct GpuMaterial {
     /// Base colour factor, linear RGBA.
     factor: [f32; 4],
-    /// Alpha mode (0 opaque, 1 mask, 2 blend), mask cutoff, and two unused.
+    /// Alpha mode (0 opaque, 1 mask, 2 blend), mask cutoff, double-sided (1) or not (0), unused.
     alpha: [f32; 4],
 }
 
@@ -788,7 +788,7 @@ fn materials_buffer(device: &wgpu::Device, materials: &[crate::mesh::Material]) 
                     AlphaMode::Blend => 2.0,
                 },
                 m.alpha_cutoff,
-                0.0,
+                if m.double_sided { 1.0 } else { 0.0 },
                 0.0,
             ],
         })
@@ -796,7 +796,7 @@ fn materials_buffer(device: &wgpu::Device, materials: &[crate::mesh::Material]) 
     if gpu.is_empty() {
         gpu.push(GpuMaterial {
             factor: [1.0; 4],
-            alpha: [0.0; 4],
+            alpha: [0.0, 0.0, 1.0, 0.0],
         });
     }
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
