@@ -540,3 +540,50 @@ fn a_colour_ramp_merges_for_free_and_keeps_its_colours() {
         );
     }
 }
+
+/// Texture coordinates in the merge order: on a flat, one-coloured 8 × 8 grid, coordinates that
+/// are a linear map of the grid cost nothing (the same order as shape alone), while a map
+/// squeezed towards one side (u = (x/8)², the texture sliding over the surface wherever a merge
+/// averages it) changes the order; `color_weight` 0 turns appearance off altogether.
+///
+/// ```text
+///   u: linear  0 ─────────── 1        squeezed  0 ── ─ ─ ─ ─ ── 1  (texels crowd to the left)
+/// ```
+#[test]
+fn texture_coordinates_price_merges_by_their_slide() {
+    let with_uvs = |uv: &dyn Fn(Vec3) -> glam::Vec2| {
+        let mut mesh = grid(8, 8, |_, _| 0.0);
+        mesh.colors = Some(vec![Vec3::ONE; mesh.positions.len()]);
+        mesh.uvs = Some(mesh.positions.iter().map(|&p| uv(p)).collect());
+        mesh.texture_of = Some(vec![0; mesh.positions.len()]);
+        mesh.textures = vec![std::sync::Arc::new(Vec::new())];
+        mesh
+    };
+    let build = |mesh: &vunify::mesh::Mesh, color_weight| {
+        let options = BuildOptions {
+            color_weight,
+            ..Default::default()
+        };
+        vtree::build(mesh, &options, &mut |_, _| {}).unwrap().0
+    };
+    let children = |t: &VertexTree| t.nodes.iter().map(|n| n.children).collect::<Vec<_>>();
+    let shape_alone = children(&build(&grid(8, 8, |_, _| 0.0), 0.0));
+    let linear = with_uvs(&|p| glam::Vec2::new(p.x / 8.0, p.y / 8.0));
+    let squeezed = with_uvs(&|p| glam::Vec2::new((p.x / 8.0).powi(2), p.y / 8.0));
+    let weight = BuildOptions::default().color_weight;
+    assert_eq!(
+        children(&build(&linear, weight)),
+        shape_alone,
+        "a linear map is free"
+    );
+    assert_ne!(
+        children(&build(&squeezed, weight)),
+        shape_alone,
+        "a squeezed map is priced"
+    );
+    assert_eq!(
+        children(&build(&squeezed, 0.0)),
+        shape_alone,
+        "weight 0: shape alone"
+    );
+}

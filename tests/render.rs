@@ -655,19 +655,16 @@ fn bundled_scenes_fly_in_without_slivers() {
 const SCENE_PSNR_DB: f64 = 38.0;
 const SCENE_DIFFERING: f64 = 0.01;
 
-/// A textured quad, built into a tree and drawn full with `ColorBy::Texture`: the left half of its
-/// 2 × 1 texture is red and the right half blue, so the screen's left and right show them (lit by
-/// the headlight, so only the hue is checked); `ColorBy::Auto` picks the texture too, and the
-/// quad's vertex colour (white) shows under `ColorBy::Shaded`-like modes only.
+/// The textured grid of the texture tests: 8 × 8 quads over the unit square in z = 0 (so that the
+/// tree has something to merge), facing +z, u running from 0.05 to 0.95 over a 2 × 1 texture whose
+/// left texel is red and right texel blue.
 ///
 /// ```text
-///   (0,1) 2───3 (1,1)      texture: [ red | blue ]
-///         │ ╲ │
-///   (0,0) 0───1 (1,0)
+///   (0,1) ┌─────┬──────┐ (1,1)      texture: [ red | blue ]
+///         │ red │ blue │           (grid lines not drawn)
+///   (0,0) └─────┴──────┘ (1,0)
 /// ```
-#[test]
-fn textures_are_drawn_from_the_tree() {
-    let Some(gpu) = gpu() else { return };
+fn textured_grid() -> Mesh {
     let mut png = Vec::new();
     image::RgbaImage::from_fn(2, 1, |x, _| {
         if x == 0 {
@@ -678,7 +675,6 @@ fn textures_are_drawn_from_the_tree() {
     })
     .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
     .unwrap();
-    // A grid of 8 × 8 quads over the unit square, so that the tree has something to merge.
     let n = 9;
     let mut positions = Vec::new();
     let mut uvs = Vec::new();
@@ -703,56 +699,96 @@ fn textures_are_drawn_from_the_tree() {
     mesh.texture_of = Some(vec![0; mesh.positions.len()]);
     mesh.uvs = Some(uvs);
     mesh.textures = vec![std::sync::Arc::new(png)];
-    let tree = tree_of(&mesh);
-    let back = vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("t.vtree")).unwrap();
-    assert_eq!(back, tree, "textures survive the file");
-    let h = Hierarchy::new(&back);
-    let size = [200, 200];
-    let target = Offscreen::new(&gpu.device, size);
+    mesh
+}
+
+/// The camera of the texture tests, 200 × 200, on the grid's axis at `z` (1.2: in front, -1.2:
+/// behind, where the red half is on the right).
+fn grid_camera(z: f32) -> vunify::refine::Camera {
+    vunify::refine::Camera::looking_at(
+        Vec3::new(0.5, 0.5, z),
+        Vec3::new(0.5, 0.5, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        [200, 200],
+        0.01,
+        10.0,
+    )
+}
+
+/// `tree` drawn whole from `camera`, coloured by `color_by`.
+fn draw_whole(
+    gpu: &Gpu,
+    tree: &VertexTree,
+    camera: &vunify::refine::Camera,
+    color_by: vunify::render::ColorBy,
+) -> image::RgbaImage {
+    let h = Hierarchy::new(tree);
+    let target = Offscreen::new(&gpu.device, [200, 200]);
     let mut r = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
     r.set_hierarchy(&gpu.device, &gpu.queue, &h);
     let mut all = Front::new(&h);
     all.refine_all(&h);
     r.set_triangles(&gpu.device, &gpu.queue, all.indices());
-    let camera = vunify::refine::Camera::looking_at(
-        Vec3::new(0.5, 0.5, 1.2),
-        Vec3::new(0.5, 0.5, 0.0),
-        Vec3::Y,
-        60f32.to_radians(),
-        size,
-        0.01,
-        10.0,
-    );
+    let options = DrawOptions {
+        color_by,
+        ..Default::default()
+    };
+    job::frame(gpu, &mut r, &target, camera, &options)
+        .unwrap()
+        .0
+}
+
+/// `mesh`'s whole tree drawn textured from `camera`.
+fn draw_textured(gpu: &Gpu, mesh: &Mesh, camera: &vunify::refine::Camera) -> image::RgbaImage {
+    draw_whole(
+        gpu,
+        &tree_of(mesh),
+        camera,
+        vunify::render::ColorBy::Texture,
+    )
+}
+
+/// Whether a pixel is the texture's red (lit by the headlight, so only the hue is checked).
+fn is_red(p: [u8; 4]) -> bool {
+    p[0] > 60 && p[0] > 3 * p[2].max(10)
+}
+
+/// The textured grid through the file and drawn full with `ColorBy::Texture` and `ColorBy::Auto`
+/// (which picks the texture): the screen's left shows the texture's red and its right the blue.
+#[test]
+fn textures_are_drawn_from_the_tree() {
+    let Some(gpu) = gpu() else { return };
+    let mesh = textured_grid();
+    let tree = tree_of(&mesh);
+    let back = vtree::read_bytes(&vtree::to_bytes(&tree), Path::new("t.vtree")).unwrap();
+    assert_eq!(back, tree, "textures survive the file");
     for color_by in [
         vunify::render::ColorBy::Texture,
         vunify::render::ColorBy::Auto,
     ] {
-        let options = DrawOptions {
-            color_by,
-            ..Default::default()
-        };
-        let image = job::frame(&gpu, &mut r, &target, &camera, &options)
-            .unwrap()
-            .0;
+        let image = draw_whole(&gpu, &back, &grid_camera(1.2), color_by);
         let left = image.get_pixel(60, 100).0;
         let right = image.get_pixel(140, 100).0;
-        assert!(
-            left[0] > 3 * left[2].max(10) && left[0] > 60,
-            "{color_by:?}: left {left:?}"
-        );
+        assert!(is_red(left), "{color_by:?}: left {left:?}");
         assert!(
             right[2] > 3 * right[0].max(10) && right[2] > 60,
             "{color_by:?}: right {right:?}"
         );
     }
-    // Materials: the factor multiplies the texture; an alpha mask below its cutoff is not drawn;
-    // a blended surface at alpha 0.5 covers half of each 4 × 4 pixel block.
+}
+
+/// Materials: the factor multiplies the texture; an alpha mask below its cutoff is not drawn; a
+/// blended surface at alpha 0.5 covers half of each 4 × 4 pixel block (a screen door).
+#[test]
+fn materials_are_drawn() {
+    let Some(gpu) = gpu() else { return };
     for (mode, alpha, factor) in [
         (vunify::mesh::AlphaMode::Opaque, 1.0, [0.5, 1.0, 1.0, 1.0]),
         (vunify::mesh::AlphaMode::Mask, 0.3, [1.0, 1.0, 1.0, 0.3]),
         (vunify::mesh::AlphaMode::Blend, 0.5, [1.0, 1.0, 1.0, 0.5]),
     ] {
-        let mut m = mesh.clone();
+        let mut m = textured_grid();
         m.materials = vec![vunify::mesh::Material {
             base_color_factor: factor,
             base_color_texture: Some(0),
@@ -760,25 +796,11 @@ fn textures_are_drawn_from_the_tree() {
             ..Default::default()
         }];
         m.material_of = Some(vec![0; m.positions.len()]);
-        let h = Hierarchy::new(&tree_of(&m));
-        r.set_hierarchy(&gpu.device, &gpu.queue, &h);
-        let mut all = Front::new(&h);
-        all.refine_all(&h);
-        r.set_triangles(&gpu.device, &gpu.queue, all.indices());
-        let options = DrawOptions {
-            color_by: vunify::render::ColorBy::Texture,
-            ..Default::default()
-        };
-        let image = job::frame(&gpu, &mut r, &target, &camera, &options)
-            .unwrap()
-            .0;
+        let image = draw_textured(&gpu, &m, &grid_camera(1.2));
         // The 16 pixels of one block inside the red half: how many are drawn red.
         let red = (56..60)
             .flat_map(|x| (96..100).map(move |y| (x, y)))
-            .filter(|&(x, y)| {
-                let p = image.get_pixel(x, y).0;
-                p[0] > 60 && p[0] > 3 * p[2].max(10)
-            })
+            .filter(|&(x, y)| is_red(image.get_pixel(x, y).0))
             .count();
         let left = image.get_pixel(60, 100).0;
         match mode {
@@ -790,39 +812,26 @@ fn textures_are_drawn_from_the_tree() {
             vunify::mesh::AlphaMode::Blend => assert_eq!(red, 8, "alpha {alpha}: half the block"),
         }
     }
-    // Seen from behind (where the red half is on the right), a single-sided material is culled
-    // and a double-sided one drawn.
-    let behind = vunify::refine::Camera::looking_at(
-        Vec3::new(0.5, 0.5, -1.2),
-        Vec3::new(0.5, 0.5, 0.0),
-        Vec3::Y,
-        60f32.to_radians(),
-        size,
-        0.01,
-        10.0,
-    );
+}
+
+/// Seen from behind, a single-sided material is culled and a double-sided one drawn (glTF).
+#[test]
+fn single_sided_materials_show_their_front_only() {
+    let Some(gpu) = gpu() else { return };
     for double_sided in [false, true] {
-        let mut m = mesh.clone();
+        let mut m = textured_grid();
         m.materials = vec![vunify::mesh::Material {
             base_color_texture: Some(0),
             double_sided,
             ..Default::default()
         }];
         m.material_of = Some(vec![0; m.positions.len()]);
-        let h = Hierarchy::new(&tree_of(&m));
-        r.set_hierarchy(&gpu.device, &gpu.queue, &h);
-        let mut all = Front::new(&h);
-        all.refine_all(&h);
-        r.set_triangles(&gpu.device, &gpu.queue, all.indices());
-        let options = DrawOptions {
-            color_by: vunify::render::ColorBy::Texture,
-            ..Default::default()
-        };
-        let image = job::frame(&gpu, &mut r, &target, &behind, &options)
-            .unwrap()
-            .0;
+        let image = draw_textured(&gpu, &m, &grid_camera(-1.2));
         let right = image.get_pixel(140, 100).0;
-        let red = right[0] > 60 && right[0] > 3 * right[2].max(10);
-        assert_eq!(red, double_sided, "double-sided {double_sided}: {right:?}");
+        assert_eq!(
+            is_red(right),
+            double_sided,
+            "double-sided {double_sided}: {right:?}"
+        );
     }
 }

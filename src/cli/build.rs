@@ -42,8 +42,9 @@ pub struct BuildArgs {
     /// Hybrid metric: weight w2 of the feature error (Tables 1 and 2).
     #[arg(long, default_value_t = HybridWeights::default().feature)]
     w_feature: f32,
-    /// For meshes with vertex colours: a full channel's colour difference counts like a deviation of
-    /// this many bounding-box diagonals, in the merge order and in the nodes' errors (0: shape only).
+    /// For meshes with vertex colours or textures: a full channel's colour difference counts like a
+    /// deviation of this many bounding-box diagonals, in the merge order and in the nodes' errors; a
+    /// texture's slide over the surface counts as its length, in the merge order (0: shape only).
     #[arg(long, default_value_t = BuildOptions::default().color_weight)]
     color_weight: f32,
     /// Keep vertices with identical positions apart (welding is on by default).

@@ -1,6 +1,6 @@
 //! What a merge costs and where the merged vertex goes: the four metrics `--metric` chooses from.
 
-use super::color_quadric::LocalColorQuadric;
+use super::attribute_quadric::LocalAttributeQuadric;
 use super::features::{CREASE_WEIGHT, DART_WEIGHT};
 use super::quadric::{LocalQuadric, Quadric};
 use glam::{DVec3, Vec3};
@@ -136,12 +136,12 @@ impl PairEnd {
 
     /// The colour quadric that `a`'s and `b`'s (`ca`, `cb`) merge into, about `position`.
     pub fn merged_color(
-        (a, ca): (&PairEnd, &LocalColorQuadric),
-        (b, cb): (&PairEnd, &LocalColorQuadric),
+        (a, ca): (&PairEnd, &LocalAttributeQuadric),
+        (b, cb): (&PairEnd, &LocalAttributeQuadric),
         position: Vec3,
-    ) -> LocalColorQuadric {
+    ) -> LocalAttributeQuadric {
         let p = position.as_dvec3();
-        LocalColorQuadric::new(&(ca.about(a.position, p) + cb.about(b.position, p)))
+        LocalAttributeQuadric::new(&(ca.about(a.position, p) + cb.about(b.position, p)))
     }
 }
 
@@ -149,10 +149,10 @@ pub struct Pricing {
     pub metric: Metric,
     pub hybrid: HybridWeights,
     pub mean_edge_length: f32,
-    /// Length that a colour difference of 1 (a full channel) costs like, 0 to ignore colour: a
-    /// merge's price gains `color_scale²` times the mean squared colour residual of its colour
-    /// quadrics at the merged vertex (see [`super::color_quadric`]), as its shape price is the
-    /// mean squared distance to its planes.
+    /// Length that a colour difference of 1 (a full channel) counts as, 0 to ignore appearance: a
+    /// merge's price gains the mean squared residual of its attribute quadrics at the merged vertex
+    /// (see [`super::attribute_quadric`], whose channels are built in these units), as its shape
+    /// price is the mean squared distance to its planes.
     pub color_scale: f32,
 }
 
@@ -164,7 +164,7 @@ impl Pricing {
         a: &PairEnd,
         b: &PairEnd,
         edge: bool,
-        colors: Option<[&LocalColorQuadric; 2]>,
+        colors: Option<[&LocalAttributeQuadric; 2]>,
     ) -> Candidate {
         let (da, db) = (a.position.as_dvec3(), b.position.as_dvec3());
         let mid = 0.5 * (da + db);
@@ -246,10 +246,7 @@ impl Pricing {
         };
         let color = match colors {
             Some([ca, cb]) if self.color_scale > 0.0 => {
-                let scale = self.color_scale as f64;
-                let residual =
-                    LocalColorQuadric::pair_mean_residual(ca, offset - ra, cb, offset - rb);
-                scale * scale * residual
+                LocalAttributeQuadric::pair_mean_residual(ca, offset - ra, cb, offset - rb)
             }
             _ => 0.0,
         };

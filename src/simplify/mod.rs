@@ -1,10 +1,10 @@
 //! Simplification machinery shared by the vertex-tree builder and the static simplifiers: the working
 //! mesh and its merge operation, quadrics, candidate pairs, feature classification and merge pricing.
 
+pub mod attribute_quadric;
 pub mod bounded;
 pub mod bounds;
 pub mod collapse;
-pub mod color_quadric;
 pub mod envelope;
 pub mod features;
 pub mod geometry;

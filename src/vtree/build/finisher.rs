@@ -6,9 +6,9 @@ use super::passes::{PassMarks, SlotSet};
 use super::pricing::{PREFETCH_AHEAD, prefetch_end};
 use super::queue::{Entry, NO_EDGE, SLOT, key};
 use super::{Builder, NONE};
+use crate::simplify::attribute_quadric::LocalAttributeQuadric;
 use crate::simplify::collapse::gather_neighbors;
 use crate::simplify::collapse::{Collapser, Neighbor};
-use crate::simplify::color_quadric::LocalColorQuadric;
 use crate::simplify::metric::{Candidate, PairEnd, Pricing};
 use crate::vtree::Node;
 use glam::Vec3;
@@ -43,7 +43,7 @@ pub(super) struct PassView<'a> {
     /// Every slot's pricing data as the pass began (the survivors' new data go to [`Places::ends`]).
     pub(super) ends: &'a [PairEnd],
     /// Every slot's colour quadric likewise (empty without colours).
-    pub(super) colors: &'a [LocalColorQuadric],
+    pub(super) colors: &'a [LocalAttributeQuadric],
     /// The ends of the pairs chosen in the pass.
     pub(super) picked: &'a SlotSet,
     pub(super) pricing: Pricing,
@@ -57,7 +57,7 @@ pub(super) struct Places<'a> {
     /// The survivors' pricing data ([`PairEnd::merged`]).
     pub(super) ends: &'a mut [PairEnd],
     /// The survivors' colour quadrics (empty without colours).
-    pub(super) colors: &'a mut [LocalColorQuadric],
+    pub(super) colors: &'a mut [LocalAttributeQuadric],
     /// Every pair of the survivor priced: none waits for the pass to end.
     pub(super) priced: &'a mut [bool],
 }
@@ -206,7 +206,10 @@ impl FinishBatch {
                 &merged,
                 fan,
                 view.leaves,
-                (view.pricing.color_scale, color.and_then(|c| c.best_color())),
+                (
+                    view.pricing.color_scale,
+                    color.and_then(|c| c.best_color(view.pricing.color_scale as f64)),
+                ),
             );
             out.nodes[i] = node;
             let end = PairEnd::merged(&view.ends[s], &view.ends[g], merged.position);
@@ -299,7 +302,7 @@ impl Builder<'_> {
         let mut new_ends = vec![PairEnd::default(); chosen.len()];
         let colored = !self.colors.is_empty();
         let mut new_colors =
-            vec![LocalColorQuadric::default(); if colored { chosen.len() } else { 0 }];
+            vec![LocalAttributeQuadric::default(); if colored { chosen.len() } else { 0 }];
         let ends = std::mem::take(&mut self.ends);
         let colors = std::mem::take(&mut self.colors);
         let PassMarks { picked, changed } = marks;

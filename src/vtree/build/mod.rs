@@ -31,8 +31,8 @@ mod queue;
 use super::{NONE, Node, PartInfo, VertexTree};
 use crate::mesh::Mesh;
 use crate::simplify::Metric;
+use crate::simplify::attribute_quadric::{AttributeQuadric, CHANNELS, LocalAttributeQuadric};
 use crate::simplify::collapse::Collapser;
-use crate::simplify::color_quadric::{ColorQuadric, LocalColorQuadric};
 use crate::simplify::features;
 use crate::simplify::metric::{Candidate, HybridWeights, PairEnd, Pricing};
 use crate::simplify::pairs::close_pairs;
@@ -75,8 +75,9 @@ pub struct BuildOptions {
     /// How much vertex colour counts, for meshes that have it (lit meshes, scans with colour): a
     /// colour difference of one full channel costs like a deviation of this many bounding-box
     /// diagonals, both in the merge order and in each node's error, so the runtime's screen-space
-    /// test keeps colour edges (shadows) as it keeps shape. Default 0.02 (see docs/VERTEX_TREE.md);
-    /// 0 builds from shape alone.
+    /// test keeps colour edges (shadows) as it keeps shape. On a textured mesh the merge order
+    /// also weighs how far a merge slides the texture over the surface. Default 0.02 (see
+    /// docs/VERTEX_TREE.md); 0 builds from shape alone.
     pub color_weight: f32,
 }
 
@@ -157,7 +158,7 @@ struct Builder<'m> {
     ends: Vec<PairEnd>,
     /// Each slot's colour quadric, about its position: empty for a mesh without colours (or with
     /// colour weighed at 0).
-    colors: Vec<LocalColorQuadric>,
+    colors: Vec<LocalAttributeQuadric>,
     /// Surface area each slot stands for: the weight of attribute averages.
     mass: Vec<f32>,
     /// The tree node each live slot currently is.
@@ -226,7 +227,10 @@ impl Builder<'_> {
             &merged,
             &fan,
             &self.mesh.positions,
-            (self.color_scale, color.and_then(|c| c.best_color())),
+            (
+                self.color_scale,
+                color.and_then(|c| c.best_color(self.color_scale as f64)),
+            ),
         );
         for c in node.children {
             nodes[c as usize].parent = u;
@@ -465,8 +469,12 @@ fn build_unit(
         .zip(&mesh.positions)
         .map(|((q, &w), &p)| PairEnd::new(q, p, w))
         .collect();
+    let color_scale = match mesh.colors {
+        Some(_) => options.color_weight.max(0.0) * diagonal,
+        None => 0.0,
+    };
     let colors = match &mesh.colors {
-        Some(colors) if options.color_weight > 0.0 => color_quadrics(mesh, colors),
+        Some(colors) if color_scale > 0.0 => attribute_quadrics(mesh, colors, color_scale),
         _ => Vec::new(),
     };
     drop((quadrics, vertex_weight));
@@ -489,10 +497,7 @@ fn build_unit(
         metric: options.metric,
         hybrid: options.hybrid,
         mean_edge_length,
-        color_scale: match mesh.colors {
-            Some(_) => options.color_weight.max(0.0) * diagonal,
-            None => 0.0,
-        },
+        color_scale,
         stats,
         removed: Vec::new(),
         samples: (0..n as u32)
@@ -641,20 +646,37 @@ pub(super) fn input_color(c: Vec3) -> Vec3 {
     c.clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-/// Each vertex's colour quadric (see [`crate::simplify::color_quadric`]): its triangles' summed,
-/// about the vertex.
-fn color_quadrics(mesh: &Mesh, colors: &[Vec3]) -> Vec<LocalColorQuadric> {
-    let mut sums = vec![ColorQuadric::default(); mesh.positions.len()];
+/// Each vertex's attribute quadric (see [`crate::simplify::attribute_quadric`]): its triangles'
+/// summed, about the vertex. The channels in units of length: a colour times `color_scale`,
+/// texture coordinates times [`texture_scales`].
+fn attribute_quadrics(
+    mesh: &Mesh,
+    colors: &[Vec3],
+    color_scale: f32,
+) -> Vec<LocalAttributeQuadric> {
+    let scales = texture_scales(mesh);
+    let channels = |v: u32| -> [f64; CHANNELS] {
+        let c = input_color(colors[v as usize]) * color_scale;
+        let (uv, s) = match (&mesh.uvs, &mesh.texture_of) {
+            (Some(uvs), Some(of)) => (
+                uvs[v as usize],
+                scales.get(of[v as usize] as usize).copied().unwrap_or(0.0),
+            ),
+            _ => (glam::Vec2::ZERO, 0.0),
+        };
+        [c.x, c.y, c.z, uv.x * s, uv.y * s].map(f64::from)
+    };
+    let mut sums = vec![AttributeQuadric::default(); mesh.positions.len()];
     // The triangles' quadrics on every core, a chunk at a time (so that they never all sit in
-    // memory, 176 bytes each), summed into their corners on one.
+    // memory, 256 bytes each), summed into their corners on one.
     let mut chunk = Vec::new();
     for triangles in mesh.triangles.chunks(1 << 15) {
         triangles
             .par_iter()
             .map(|t| {
-                ColorQuadric::from_triangle(
+                AttributeQuadric::from_triangle(
                     t.map(|v| mesh.positions[v as usize]),
-                    t.map(|v| input_color(colors[v as usize])),
+                    t.map(channels),
                 )
             })
             .collect_into_vec(&mut chunk);
@@ -666,6 +688,36 @@ fn color_quadrics(mesh: &Mesh, colors: &[Vec3]) -> Vec<LocalColorQuadric> {
     }
     sums.par_iter()
         .zip(&mesh.positions)
-        .map(|(q, p)| LocalColorQuadric::new(&q.shifted(p.as_dvec3())))
+        .map(|(q, p)| LocalAttributeQuadric::new(&q.shifted(p.as_dvec3())))
+        .collect()
+}
+
+/// Per texture, the surface's length per unit of texture space: the square root of the area of
+/// the triangles that use it over their area in texture space (0 for a texture no triangle
+/// spans). A texture coordinate times it is where on the surface its texel lies, give or take the
+/// chart's layout, so a residual in these units is how far the texture slides.
+fn texture_scales(mesh: &Mesh) -> Vec<f32> {
+    let (Some(uvs), Some(of)) = (&mesh.uvs, &mesh.texture_of) else {
+        return Vec::new();
+    };
+    let mut areas = vec![(0f64, 0f64); mesh.textures.len()];
+    for t in &mesh.triangles {
+        let Some(a) = areas.get_mut(of[t[0] as usize] as usize) else {
+            continue;
+        };
+        let [p, q, r] = t.map(|v| mesh.positions[v as usize]);
+        let [u, v, w] = t.map(|v| uvs[v as usize]);
+        a.0 += 0.5 * (q - p).cross(r - p).length() as f64;
+        a.1 += 0.5 * (v - u).perp_dot(w - u).abs() as f64;
+    }
+    areas
+        .iter()
+        .map(|&(world, texture)| {
+            if texture > 0.0 {
+                (world / texture).sqrt() as f32
+            } else {
+                0.0
+            }
+        })
         .collect()
 }

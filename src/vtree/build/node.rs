@@ -82,7 +82,7 @@ pub(super) fn fan_of(collapser: &Collapser, slot: u32, out: &mut Vec<FanTriangle
 /// Colour, normal, bounding sphere, normal cone and error of a new node, from its (finished)
 /// children and `fan`, the triangles around its slot right after the merge ([`fan_of`]).
 /// `color_scale` is the length a full channel's colour difference counts as (0: shape only);
-/// `color`, the node's colour when its colour quadric has one (else its children's blend).
+/// `color`, the node's colour when its attribute quadric has one (else its children's blend).
 pub(super) fn finish_node(
     node: &mut Node,
     done: &[Node],

@@ -2,8 +2,8 @@
 
 use super::Builder;
 use super::queue::{Entry, NO_EDGE, key};
+use crate::simplify::attribute_quadric::LocalAttributeQuadric;
 use crate::simplify::collapse::Neighbor;
-use crate::simplify::color_quadric::LocalColorQuadric;
 use crate::simplify::metric::PairEnd;
 use rayon::prelude::*;
 
@@ -20,12 +20,12 @@ pub(super) const PRICE_CHUNK: usize = 1 << 14;
 
 /// Asks for what pricing a pair reads of slot `s`: its end (one cache line) and, on a mesh with
 /// colours, its colour quadric (92 bytes: both lines it may span). Only a hint.
-pub(super) fn prefetch_end(ends: &[PairEnd], colors: &[LocalColorQuadric], s: usize) {
+pub(super) fn prefetch_end(ends: &[PairEnd], colors: &[LocalAttributeQuadric], s: usize) {
     crate::prefetch(&ends[s]);
     if let Some(c) = colors.get(s) {
-        let address = c as *const LocalColorQuadric as usize;
+        let address = c as *const LocalAttributeQuadric as usize;
         crate::prefetch_address(address);
-        crate::prefetch_address(address + std::mem::size_of::<LocalColorQuadric>() - 1);
+        crate::prefetch_address(address + std::mem::size_of::<LocalAttributeQuadric>() - 1);
     }
 }
 
