@@ -587,3 +587,30 @@ fn texture_coordinates_price_merges_by_their_slide() {
         "weight 0: shape alone"
     );
 }
+
+/// A node's texture coordinates are where it stands on the chart, as its colour is the colour
+/// there: on the 8 × 8 grid mapped linearly (u = x/8, v = y/8), every node, wherever its merge
+/// put it (often at one end, where the mean of its leaves' coordinates is not), has the map's
+/// coordinates at its own position, so a coarse level draws the texture where the input has it.
+#[test]
+fn nodes_take_the_texture_coordinates_of_their_place() {
+    let mut mesh = grid(8, 8, |_, _| 0.0);
+    mesh.colors = Some(vec![Vec3::ONE; mesh.positions.len()]);
+    let map = |p: Vec3| glam::Vec2::new(p.x / 8.0, p.y / 8.0);
+    mesh.uvs = Some(mesh.positions.iter().map(|&p| map(p)).collect());
+    mesh.texture_of = Some(vec![0; mesh.positions.len()]);
+    mesh.textures = vec![std::sync::Arc::new(Vec::new())];
+    let tree = vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
+        .unwrap()
+        .0;
+    let appearance = tree.appearance.as_ref().unwrap();
+    for (u, node) in tree.nodes.iter().enumerate() {
+        let want = map(Vec3::from_array(node.position));
+        let got = glam::Vec2::from_array(appearance.uvs[u]);
+        assert!(
+            got.distance(want) < 1e-4,
+            "node {u} at {:?}: coordinates {got}, the map has {want}",
+            node.position
+        );
+    }
+}

@@ -167,6 +167,13 @@ impl LocalAttributeQuadric {
         })
     }
 
+    /// The best texture coordinates at the vertex, in the channels' units of length (the
+    /// texture's scale times the coordinates); `None` for a quadric of no area.
+    pub fn best_texture(&self) -> Option<glam::Vec2> {
+        let w = self.spatial.weight();
+        (w > 0.0).then(|| glam::Vec2::new(self.linear[3][3], self.linear[4][3]) / w)
+    }
+
     /// `q`, already expressed about the vertex, rounded to `f32`.
     pub fn new(q: &AttributeQuadric) -> LocalAttributeQuadric {
         LocalAttributeQuadric {

@@ -400,6 +400,7 @@ impl Builder<'_> {
             self.ends[slot as usize] = new_ends[k];
             if colored {
                 self.colors[slot as usize] = new_colors[k];
+                self.note_texture(&new_colors[k]);
             }
         }
         PassResult {

@@ -173,6 +173,10 @@ struct Builder<'m> {
     mean_edge_length: f32,
     /// [`Pricing::color_scale`]: 0 for a mesh without colours.
     color_scale: f32,
+    /// On a textured mesh, each internal node's best texture coordinates by its attribute
+    /// quadric, in the quadric's units of length (see [`appearance`]), in node order from the
+    /// first internal node; empty otherwise.
+    texture_at: Vec<[f32; 2]>,
     stats: BuildStats,
     removed: Vec<(u32, crate::simplify::collapse::Vanish)>,
     /// Error samples of each live slot (input vertex ids, `NONE`-padded).
@@ -196,6 +200,15 @@ impl Builder<'_> {
             .price(&self.ends[a], &self.ends[b], edge, colors)
     }
 
+    /// Records a new node's best texture coordinates from its attribute quadric `q`, on a
+    /// textured mesh.
+    fn note_texture(&mut self, q: &LocalAttributeQuadric) {
+        if self.mesh.uvs.is_some() {
+            self.texture_at
+                .push(q.best_texture().map_or([f32::NAN; 2], |t| t.to_array()));
+        }
+    }
+
     fn merges(&self) -> u32 {
         self.nodes.len() as u32 - self.mesh.positions.len() as u32
     }
@@ -217,6 +230,7 @@ impl Builder<'_> {
         });
         if let Some(c) = color {
             self.colors[s] = c;
+            self.note_texture(&c);
         }
         self.ends[s] = PairEnd::merged(&self.ends[s], &self.ends[g], merged.position);
         let mut fan = Vec::new();
@@ -480,6 +494,8 @@ fn build_unit(
     drop((quadrics, vertex_weight));
 
     // 3-5. Merge until one vertex is left.
+    let mut vanish_offsets = Vec::with_capacity(n);
+    vanish_offsets.push(0);
     let mut builder = Builder {
         mesh,
         collapser,
@@ -489,15 +505,12 @@ fn build_unit(
         node_of: (0..n as u32).collect(),
         nodes,
         vanished: Vec::with_capacity(mesh.triangles.len()),
-        vanish_offsets: {
-            let mut v = Vec::with_capacity(n);
-            v.push(0);
-            v
-        },
+        vanish_offsets,
         metric: options.metric,
         hybrid: options.hybrid,
         mean_edge_length,
         color_scale,
+        texture_at: Vec::new(),
         stats,
         removed: Vec::new(),
         samples: (0..n as u32)
@@ -543,6 +556,7 @@ impl Builder<'_> {
             nodes,
             vanished,
             vanish_offsets,
+            texture_at,
             ..
         } = self;
         let triangles = vanished
@@ -571,7 +585,7 @@ impl Builder<'_> {
                 .collect(),
         };
         let mut tree = tree;
-        tree.appearance = appearance(mesh, &tree.nodes);
+        tree.appearance = appearance(mesh, &tree.nodes, &texture_at);
         tree.materials = materials(mesh, &tree.nodes);
         stats.nodes = tree.nodes.len() as u32;
         stats.depth = tree.depth();
@@ -584,11 +598,16 @@ impl Builder<'_> {
 const CHART_UV_DISTANCE: f32 = 0.05;
 
 /// Each node's texture coordinates and texture, when the mesh has them: a leaf's are its vertex's;
-/// an internal node's, its children's mean weighted by their leaves (within one chart, a mean of
-/// coordinates is a point of it), and the texture of the child with more leaves (edge merges keep
-/// to one texture: its borders are split vertices).
-fn appearance(mesh: &Mesh, nodes: &[Node]) -> Option<super::Appearance> {
+/// an internal node's, the texture of the child with more leaves (edge merges keep to one texture:
+/// its borders are split vertices) and the coordinates its attribute quadric finds best at its
+/// position (`texture_at`, divided by the texture's scale): where the node stands on the input's
+/// charts, as its colour is the colour there. Kept at one end of a long merge, the node takes the
+/// coordinates of that end, not the middle of the merge, so the texture does not slide. Where there
+/// is no such quadric, or the children have different textures, the children's mean weighted by
+/// their leaves (within one chart, a mean of coordinates is a point of it).
+fn appearance(mesh: &Mesh, nodes: &[Node], texture_at: &[[f32; 2]]) -> Option<super::Appearance> {
     let uvs = mesh.uvs.as_ref()?;
+    let scales = texture_scales(mesh);
     let n = mesh.positions.len();
     let mut uv: Vec<[f32; 2]> = Vec::with_capacity(nodes.len());
     let mut texture: Vec<u32> = Vec::with_capacity(nodes.len());
@@ -602,12 +621,19 @@ fn appearance(mesh: &Mesh, nodes: &[Node]) -> Option<super::Appearance> {
         );
         leaves.push(1);
     }
-    for node in &nodes[n..] {
+    debug_assert!(texture_at.is_empty() || texture_at.len() == nodes.len() - n);
+    for (k, node) in nodes[n..].iter().enumerate() {
         let [a, b] = node.children.map(|c| c as usize);
         let (wa, wb) = (leaves[a] as f32, leaves[b] as f32);
         let mean =
             (glam::Vec2::from_array(uv[a]) * wa + glam::Vec2::from_array(uv[b]) * wb) / (wa + wb);
-        uv.push(mean.to_array());
+        let best = match (texture_at.get(k), scales.get(texture[a] as usize)) {
+            (Some(&[u, v]), Some(&scale)) if texture[a] == texture[b] && scale > 0.0 => {
+                Some(glam::Vec2::new(u, v) / scale).filter(|t| t.is_finite())
+            }
+            _ => None,
+        };
+        uv.push(best.unwrap_or(mean).to_array());
         texture.push(if leaves[a] >= leaves[b] {
             texture[a]
         } else {
