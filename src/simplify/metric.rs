@@ -134,7 +134,7 @@ impl PairEnd {
         }
     }
 
-    /// The colour quadric that `a`'s and `b`'s (`ca`, `cb`) merge into, about `position`.
+    /// The attribute quadric that `a`'s and `b`'s (`ca`, `cb`) merge into, about `position`.
     pub fn merged_color(
         (a, ca): (&PairEnd, &LocalAttributeQuadric),
         (b, cb): (&PairEnd, &LocalAttributeQuadric),

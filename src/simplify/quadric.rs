@@ -38,7 +38,7 @@ impl Quadric {
     }
 
     /// The quadric of `w · (g·x + d)²`, any `g` (a plane's when `g` is a unit normal; a colour
-    /// channel's linear function in [`super::color_quadric`]).
+    /// channel's linear function in [`super::attribute_quadric`]).
     pub fn from_linear(g: DVec3, d: f64, w: f64) -> Quadric {
         Quadric {
             a00: w * g.x * g.x,

@@ -42,7 +42,7 @@ pub(super) struct PassView<'a> {
     pub(super) leaves: &'a [Vec3],
     /// Every slot's pricing data as the pass began (the survivors' new data go to [`Places::ends`]).
     pub(super) ends: &'a [PairEnd],
-    /// Every slot's colour quadric likewise (empty without colours).
+    /// Every slot's attribute quadric likewise (empty without colours).
     pub(super) colors: &'a [LocalAttributeQuadric],
     /// The ends of the pairs chosen in the pass.
     pub(super) picked: &'a SlotSet,
@@ -56,7 +56,7 @@ pub(super) struct Places<'a> {
     pub(super) kept: &'a mut [Samples],
     /// The survivors' pricing data ([`PairEnd::merged`]).
     pub(super) ends: &'a mut [PairEnd],
-    /// The survivors' colour quadrics (empty without colours).
+    /// The survivors' attribute quadrics (empty without colours).
     pub(super) colors: &'a mut [LocalAttributeQuadric],
     /// Every pair of the survivor priced: none waits for the pass to end.
     pub(super) priced: &'a mut [bool],

@@ -156,7 +156,7 @@ struct Builder<'m> {
     collapser: Collapser,
     /// Each slot's quadric (about its position) and Table 1 weight, as pricing reads them.
     ends: Vec<PairEnd>,
-    /// Each slot's colour quadric, about its position: empty for a mesh without colours (or with
+    /// Each slot's attribute quadric, about its position: empty for a mesh without colours (or with
     /// colour weighed at 0).
     colors: Vec<LocalAttributeQuadric>,
     /// Surface area each slot stands for: the weight of attribute averages.

@@ -19,13 +19,15 @@ pub(super) const PRICE_RUN: usize = 256;
 pub(super) const PRICE_CHUNK: usize = 1 << 14;
 
 /// Asks for what pricing a pair reads of slot `s`: its end (one cache line) and, on a mesh with
-/// colours, its colour quadric (92 bytes: both lines it may span). Only a hint.
+/// colours, its attribute quadric (124 bytes: the lines it spans). Only a hint.
 pub(super) fn prefetch_end(ends: &[PairEnd], colors: &[LocalAttributeQuadric], s: usize) {
     crate::prefetch(&ends[s]);
     if let Some(c) = colors.get(s) {
-        let address = c as *const LocalAttributeQuadric as usize;
-        crate::prefetch_address(address);
-        crate::prefetch_address(address + std::mem::size_of::<LocalAttributeQuadric>() - 1);
+        let first = c as *const LocalAttributeQuadric as usize;
+        let last = first + std::mem::size_of::<LocalAttributeQuadric>() - 1;
+        for line in (first & !63..=last).step_by(64) {
+            crate::prefetch_address(line);
+        }
     }
 }
 
