@@ -58,7 +58,7 @@ fn pictures(gpu: &Gpu, mesh: &Mesh, cameras: &[Camera]) -> Vec<image::RgbaImage>
     all.refine_all(&h);
     let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
     renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
-    renderer.set_triangles(&gpu.device, &gpu.queue, all.indices());
+    renderer.set_triangles(&gpu.device, &gpu.queue, &all.all_vertices(&h));
     let target = Offscreen::new(&gpu.device, SIZE);
     let draw = DrawOptions {
         color_by: ColorBy::Auto,

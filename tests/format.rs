@@ -231,6 +231,7 @@ fn materials_round_trip() {
     );
     let plain = VertexTree {
         materials: None,
+        wedges: None,
         ..tree.clone()
     };
     let plain_bytes = vtree::to_bytes(&plain);

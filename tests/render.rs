@@ -75,14 +75,14 @@ fn render(
         None => {
             let mut f = Front::new(h);
             f.refine_all(h);
-            r.set_triangles(&gpu.device, &gpu.queue, f.indices());
+            r.set_triangles(&gpu.device, &gpu.queue, &f.all_vertices(h));
             f.triangle_count()
         }
         Some(settings) => {
             let mut refiner = Refiner::new(h, settings);
             refiner.update(h, &camera);
             let (front, moved) = refiner.output();
-            r.upload(&gpu.device, &gpu.queue, front, moved);
+            r.upload(&gpu.device, &gpu.queue, h, front, moved);
             front.triangle_count()
         }
     };
@@ -237,7 +237,7 @@ fn resizing() {
         let camera = camera_at(&path, 0.5, size, h.diagonal);
         refiner.update(&h, &camera);
         let (front, moved) = refiner.output();
-        renderer.upload(&gpu.device, &gpu.queue, front, moved);
+        renderer.upload(&gpu.device, &gpu.queue, &h, front, moved);
         counts.push(front.triangle_count());
         let image = shot(&gpu, &mut renderer, &target, &camera);
         assert_eq!(image.dimensions(), (size[0], size[1]));
@@ -260,7 +260,7 @@ fn an_empty_front_draws_the_background() {
     let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
     renderer.set_hierarchy(&gpu.device, &gpu.queue, &h);
     let mut front = Front::new(&h); // the root alone: no triangle
-    renderer.upload(&gpu.device, &gpu.queue, &mut front, &[]);
+    renderer.upload(&gpu.device, &gpu.queue, &h, &mut front, &[]);
     let target = Offscreen::new(&gpu.device, [64, 48]);
     let camera = camera_at(&path, 0.0, [64, 48], h.diagonal);
     let image = shot(&gpu, &mut renderer, &target, &camera);
@@ -371,7 +371,7 @@ fn render_job_writes_its_files() {
 fn full_frame(gpu: &Gpu, renderer: &mut Renderer, h: &Hierarchy, draw: &DrawOptions) -> RgbaImage {
     let mut f = Front::new(h);
     f.refine_all(h);
-    renderer.set_triangles(&gpu.device, &gpu.queue, f.indices());
+    renderer.set_triangles(&gpu.device, &gpu.queue, &f.all_vertices(h));
     let (c, r) = bounds(h);
     let path = CameraPath::orbit(c, r * 0.6, 4.0);
     let target = Offscreen::new(&gpu.device, [400, 300]);
@@ -404,7 +404,7 @@ fn index_buffer_chunks() {
         for (refiner, renderer) in [(&mut a, &mut whole), (&mut b, &mut chunked)] {
             refiner.update(&h, &camera);
             let (front, moved) = refiner.output();
-            renderer.upload(&gpu.device, &gpu.queue, front, moved);
+            renderer.upload(&gpu.device, &gpu.queue, &h, front, moved);
         }
         let x = job::frame(&gpu, &mut whole, &target, &camera, &draw)
             .unwrap()
@@ -729,7 +729,7 @@ fn draw_whole(
     r.set_hierarchy(&gpu.device, &gpu.queue, &h);
     let mut all = Front::new(&h);
     all.refine_all(&h);
-    r.set_triangles(&gpu.device, &gpu.queue, all.indices());
+    r.set_triangles(&gpu.device, &gpu.queue, &all.all_vertices(&h));
     let options = DrawOptions {
         color_by,
         ..Default::default()

@@ -185,7 +185,13 @@ impl CompareView {
             };
             if let Some(ready) = &mut slot.ready {
                 ready.set_triangles(target);
-                ready.renderer.upload(device, queue, &mut ready.front, &[]);
+                ready.renderer.upload(
+                    device,
+                    queue,
+                    &ready.loaded.hierarchy,
+                    &mut ready.front,
+                    &[],
+                );
             }
         }
     }

@@ -226,9 +226,13 @@ fn refine_and_upload(
         line.stats = m.refiner.update(&m.loaded.hierarchy, &lod_camera);
         let t0 = Instant::now();
         let (front, moved) = m.refiner.output();
-        let upload = m
-            .renderer
-            .upload(&gfx.gpu.device, &gfx.gpu.queue, front, moved);
+        let upload = m.renderer.upload(
+            &gfx.gpu.device,
+            &gfx.gpu.queue,
+            &m.loaded.hierarchy,
+            front,
+            moved,
+        );
         line.upload_ms = t0.elapsed().as_secs_f64() * 1e3;
         line.upload_bytes = upload.bytes;
     }

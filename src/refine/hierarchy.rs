@@ -43,6 +43,9 @@ pub struct Hierarchy {
     /// Every input triangle (leaf corners, input winding) grouped by `d(t)`, cyclically rotated so
     /// that corner 2 lies outside the subtree of `d(t)` and corners 0 and 1 inside it.
     pub triangles: Vec<[u32; 3]>,
+    /// Per-corner appearance, when the tree has wedges: the drawn vertices are then wedges, not
+    /// nodes, and `color` and `uv_texture` are per wedge.
+    pub wedges: Option<HierarchyWedges>,
     /// The input's faces wind clockwise seen from outside (negative signed volume, like the horse
     /// model): cones were flipped so that the normal test still culls the far side.
     pub inward: bool,
@@ -50,6 +53,49 @@ pub struct Hierarchy {
     /// colours are drawn unlit by default.
     pub one_sided: bool,
     pub diagonal: f32,
+}
+
+/// A tree's wedges as the runtime reads them (see [`crate::vtree::Wedges`]): renumbered so that
+/// node `u`'s are `start[u]..start[u + 1]`, which are also their vertices in the drawn vertex
+/// buffer.
+pub struct HierarchyWedges {
+    pub start: Vec<u32>,
+    /// Each wedge's node, and the wedge it becomes at its node's parent ([`NIL`] at the root).
+    pub node: Vec<u32>,
+    pub parent: Vec<u32>,
+    /// Per triangle of [`Hierarchy::triangles`], its corners' leaf wedges (rotated likewise).
+    pub corners: Vec<[u32; 3]>,
+}
+
+impl HierarchyWedges {
+    /// The wedge at node `u` (an ancestor of the leaf of `leaf_wedge`, or that leaf) that
+    /// `leaf_wedge` has become: `u`'s only one, or found by walking up.
+    #[inline]
+    pub fn at(&self, leaf_wedge: u32, u: u32) -> u32 {
+        let (lo, hi) = (self.start[u as usize], self.start[u as usize + 1]);
+        if hi - lo == 1 {
+            return lo;
+        }
+        let mut w = leaf_wedge;
+        while !(lo..hi).contains(&w) {
+            w = self.parent[w as usize];
+        }
+        w
+    }
+
+    /// The drawn vertices of a triangle with corner nodes `corners` and leaf wedges `leaf_wedges`.
+    #[inline]
+    pub fn vertices(&self, corners: [u32; 3], leaf_wedges: [u32; 3]) -> [u32; 3] {
+        std::array::from_fn(|k| self.at(leaf_wedges[k], corners[k]))
+    }
+
+    pub fn len(&self) -> usize {
+        self.node.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.node.is_empty()
+    }
 }
 
 /// The view tests' data of an internal node, in one place because every visit reads all of it (as
@@ -116,7 +162,7 @@ impl Hierarchy {
             .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
             .collect();
         let color = colors_of(tree, &old_of);
-        let (uv_texture, textures, materials) = appearance_of(tree, &old_of);
+        let (uv_texture, textures, materials, layer) = appearance_of(tree, &old_of);
         let internal: Vec<&crate::vtree::Node> = (n..count as u32).map(node).collect();
         let internal_children: Vec<[u32; 2]> =
             internal.iter().map(|x| x.children.map(renumber)).collect();
@@ -160,10 +206,11 @@ impl Hierarchy {
         // A one-sided mesh (a lit room, seen from inside) means its winding even when its volume is
         // negative; anything else seen from outside is taken to be wound inward when it is.
         let inward = !tree.one_sided && signed_volume(&tree.nodes, &tree.triangles) < 0.0;
-        let mut keyed: Vec<(u32, [u32; 3])> = tree
+        let mut keyed: Vec<(u32, [u32; 3], u32, usize)> = tree
             .triangles
             .iter()
-            .map(|t| {
+            .enumerate()
+            .map(|(i, t)| {
                 let t = t.map(renumber);
                 let [x, y, z] = t;
                 let mut a = parent[x as usize];
@@ -184,18 +231,16 @@ impl Hierarchy {
                     _ => (a, 1),
                 };
                 let rotated = [t[(outside + 1) % 3], t[(outside + 2) % 3], t[outside]];
-                (d - n, rotated)
+                (d - n, rotated, i as u32, outside)
             })
             .collect();
-        keyed.sort_by_key(|&(k, _)| k);
-        internal_nodes.push(Internal::default());
-        for &(k, _) in &keyed {
-            internal_nodes[k as usize + 1].appear += 1;
-        }
-        for k in 0..internal.len() {
-            internal_nodes[k + 1].appear += internal_nodes[k].appear;
-        }
-        let triangles = keyed.into_iter().map(|(_, t)| t).collect();
+        keyed.sort_by_key(|&(k, ..)| k);
+        count_appearing(&mut internal_nodes, &keyed);
+        let (color, uv_texture, wedges) = match &tree.wedges {
+            Some(w) => wedge_vertices(tree, w, &new_id, &keyed, &layer),
+            None => (color, uv_texture, None),
+        };
+        let triangles = keyed.into_iter().map(|(_, t, ..)| t).collect();
         let flip = if inward { -1.0 } else { 1.0 };
         let internal_cone: Vec<([i16; 2], f32)> =
             internal.iter().map(|x| runtime_cone(x, flip)).collect();
@@ -223,6 +268,7 @@ impl Hierarchy {
                 .collect(),
             internal: internal_nodes,
             triangles,
+            wedges,
             inward,
             one_sided: tree.one_sided,
             diagonal: tree.diagonal(),
@@ -529,13 +575,14 @@ fn appearance_of(
     Vec<[f32; 4]>,
     Vec<std::sync::Arc<Vec<u8>>>,
     Vec<crate::mesh::Material>,
+    Vec<f32>,
 ) {
     let Some(materials) = (tree.appearance.is_some() || tree.materials.is_some()).then(|| {
         tree.materials
             .as_ref()
             .map_or_else(Vec::new, |m| m.list.clone())
     }) else {
-        return (Vec::new(), Vec::new(), Vec::new());
+        return (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     };
     // Only base colour textures are drawn: each gets a layer (the other maps a material carries
     // are not uploaded).
@@ -543,7 +590,9 @@ fn appearance_of(
     let mut drawn = Vec::new();
     if let Some(a) = &tree.appearance {
         layer = vec![-1.0f32; a.textures.len()];
-        for &t in &a.texture_of {
+        // With wedges, every wedge's texture: a node's first wedge shows only one of them.
+        let wedge_textures = tree.wedges.as_ref().map_or(&[][..], |w| &w.texture[..]);
+        for &t in a.texture_of.iter().chain(wedge_textures) {
             if t != crate::mesh::NO_TEXTURE && layer[t as usize] < 0.0 {
                 layer[t as usize] = drawn.len() as f32;
                 drawn.push(a.textures[t as usize].clone());
@@ -567,7 +616,7 @@ fn appearance_of(
             [a.uvs[old][0], a.uvs[old][1], t, material]
         })
         .collect();
-    (uv_texture, drawn, materials)
+    (uv_texture, drawn, materials, layer)
 }
 
 /// Every node's display colour in the hierarchy's order; empty for a tree without colours.
@@ -586,4 +635,115 @@ fn display_color(node: &crate::vtree::Node) -> [u8; 4] {
         .color
         .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
     [c[0], c[1], c[2], 255]
+}
+
+/// The tree's wedges renumbered by their nodes' new ids (`new_id`), and each triangle's corners'
+/// leaf wedges in `keyed`'s order and rotation (`(group, corners, tree triangle, outside corner)`).
+fn wedges_of(
+    w: &crate::vtree::Wedges,
+    new_id: &[u32],
+    keyed: &[(u32, [u32; 3], u32, usize)],
+) -> (HierarchyWedges, Vec<u32>) {
+    let nodes = new_id.len();
+    let mut start = vec![0u32; nodes + 1];
+    for &u in &w.node {
+        start[new_id[u as usize] as usize + 1] += 1;
+    }
+    for u in 0..nodes {
+        start[u + 1] += start[u];
+    }
+    let mut next = start.clone();
+    let renumbered: Vec<u32> = w
+        .node
+        .iter()
+        .map(|&u| {
+            let slot = &mut next[new_id[u as usize] as usize];
+            *slot += 1;
+            *slot - 1
+        })
+        .collect();
+    let mut node = vec![0; w.len()];
+    let mut parent = vec![NIL; w.len()];
+    for (old, &new) in renumbered.iter().enumerate() {
+        node[new as usize] = new_id[w.node[old] as usize];
+        let p = w.parent[old];
+        parent[new as usize] = if p == NONE {
+            NIL
+        } else {
+            renumbered[p as usize]
+        };
+    }
+    let corners = keyed
+        .iter()
+        .map(|&(_, _, t, outside)| {
+            let c = w.corners[t as usize].map(|x| renumbered[x as usize]);
+            [c[(outside + 1) % 3], c[(outside + 2) % 3], c[outside]]
+        })
+        .collect();
+    (
+        HierarchyWedges {
+            start,
+            node,
+            parent,
+            corners,
+        },
+        renumbered,
+    )
+}
+
+/// Closes `internal` with one more entry and sets each entry's `appear` to where its node's
+/// triangles start among `keyed` (sorted by node).
+fn count_appearing(internal: &mut Vec<Internal>, keyed: &[(u32, [u32; 3], u32, usize)]) {
+    internal.push(Internal::default());
+    for &(k, ..) in keyed {
+        internal[k as usize + 1].appear += 1;
+    }
+    for k in 0..internal.len() - 1 {
+        internal[k + 1].appear += internal[k].appear;
+    }
+}
+
+/// A tree's wedges renumbered (see [`wedges_of`]) and their colours and `[u, v, layer, material]`
+/// (see [`wedge_appearance`]).
+#[allow(clippy::type_complexity)]
+fn wedge_vertices(
+    tree: &VertexTree,
+    w: &crate::vtree::Wedges,
+    new_id: &[u32],
+    keyed: &[(u32, [u32; 3], u32, usize)],
+    layer: &[f32],
+) -> (Vec<[u8; 4]>, Vec<[f32; 4]>, Option<HierarchyWedges>) {
+    let (hw, renumbered) = wedges_of(w, new_id, keyed);
+    let (c, uv) = wedge_appearance(w, &renumbered, layer, tree.materials.is_some());
+    let c = if tree.has_colors { c } else { Vec::new() };
+    (c, uv, Some(hw))
+}
+
+/// Per wedge, in the hierarchy's order (`renumbered`: each tree wedge's id there), its display
+/// colour and `[u, v, layer, material]` (`layer`: each texture's layer, −1 for none).
+fn wedge_appearance(
+    w: &crate::vtree::Wedges,
+    renumbered: &[u32],
+    layer: &[f32],
+    has_materials: bool,
+) -> (Vec<[u8; 4]>, Vec<[f32; 4]>) {
+    let mut color = vec![[0u8; 4]; w.len()];
+    let mut uv_texture = vec![[0f32; 4]; w.len()];
+    for (old, &new) in renumbered.iter().enumerate() {
+        let c = w.color[old].map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+        color[new as usize] = [c[0], c[1], c[2], 255];
+        let t = w.texture[old];
+        let t = if t == crate::mesh::NO_TEXTURE {
+            -1.0
+        } else {
+            layer.get(t as usize).copied().unwrap_or(-1.0)
+        };
+        let material = if has_materials {
+            w.material[old] as f32
+        } else {
+            -1.0
+        };
+        uv_texture[new as usize] = [w.uv[old][0], w.uv[old][1], t, material];
+    }
+    (color, uv_texture)
 }

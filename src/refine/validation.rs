@@ -93,6 +93,42 @@ pub fn check_front(h: &Hierarchy, front: &Front) -> Result<(), String> {
             expected.len()
         ));
     }
+    check_wedges(h, front)
+}
+
+/// With wedges, each drawn corner shows the wedge of its node that its input triangle's leaf
+/// wedge has become, found the slow way (walking up the wedges' parents).
+fn check_wedges(h: &Hierarchy, front: &Front) -> Result<(), String> {
+    let Some(w) = &h.wedges else {
+        return Ok(());
+    };
+    let by_input: HashMap<[u32; 3], usize> = h
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| (t, i))
+        .collect();
+    let drawn = front.all_vertices(h);
+    let inputs = front.drawn_input_triangles();
+    for (slot, ((&c, &v), input)) in front.indices().iter().zip(&drawn).zip(inputs).enumerate() {
+        let Some(&t) = by_input.get(&input) else {
+            return Err(format!(
+                "drawn triangle {slot}'s input {input:?} is no triangle"
+            ));
+        };
+        for k in 0..3 {
+            let mut x = w.corners[t][k];
+            while x != NIL && w.node[x as usize] != c[k] {
+                x = w.parent[x as usize];
+            }
+            if x != v[k] {
+                return Err(format!(
+                    "drawn triangle {slot}'s corner {k} at node {} shows wedge {}, not {x}",
+                    c[k], v[k]
+                ));
+            }
+        }
+    }
     Ok(())
 }
 

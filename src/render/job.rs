@@ -125,7 +125,7 @@ pub fn render_path(
         r.set_hierarchy(device, queue, h);
         let mut all = Front::new(h);
         all.refine_all(h);
-        r.set_triangles(device, queue, all.indices());
+        r.set_triangles(device, queue, &all.all_vertices(h));
         full_triangles = all.triangle_count();
         full = Some(r);
     }
@@ -133,7 +133,7 @@ pub fn render_path(
     let fixed = job.full.then(|| {
         let mut all = Front::new(h);
         all.refine_all(h);
-        lod.set_triangles(device, queue, all.indices());
+        lod.set_triangles(device, queue, &all.all_vertices(h));
         FrameStats {
             triangles: all.triangle_count() as u32,
             active_vertices: h.leaf_count,
@@ -159,7 +159,7 @@ pub fn render_path(
                 let stats = refiner.update(h, &camera);
                 let t0 = Instant::now();
                 let (front, moved) = refiner.output();
-                let upload = lod.upload(device, queue, front, moved);
+                let upload = lod.upload(device, queue, h, front, moved);
                 (stats, upload.bytes, t0.elapsed().as_secs_f64() * 1e3)
             }
         };

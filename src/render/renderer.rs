@@ -328,16 +328,27 @@ impl Renderer {
                 depth: depth[u as usize],
             })
             .collect();
+        // With wedges the vertices are wedges, each at its node (see `HierarchyWedges`).
+        let (positions, normals, debug) = (
+            expand(h, &h.position),
+            expand(h, &h.normal),
+            expand(h, &debug),
+        );
+        let colors = if has_colors || h.wedges.is_none() {
+            colors
+        } else {
+            vec![[200, 194, 184, 255]; positions.len()]
+        };
         let model = Model {
             positions: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("positions"),
-                contents: bytemuck::cast_slice(&h.position),
+                contents: bytemuck::cast_slice(&positions),
                 // Storage too: the barycentric wireframe pulls positions itself.
                 usage: wgpu::BufferUsages::VERTEX
                     | wgpu::BufferUsages::COPY_DST
                     | wgpu::BufferUsages::STORAGE,
             }),
-            normals: vertex("normals", bytemuck::cast_slice(&h.normal)),
+            normals: vertex("normals", bytemuck::cast_slice(&normals)),
             colors: vertex("colors", bytemuck::cast_slice(&colors)),
             debug: vertex("debug", bytemuck::cast_slice(&debug)),
             uv_texture: vertex("uv_texture", bytemuck::cast_slice(&uv_texture)),
@@ -358,28 +369,49 @@ impl Renderer {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
+        h: &Hierarchy,
         front: &mut Front,
         vertex_updates: &[(u32, Vec3)],
     ) -> UploadStats {
         let model = self.model.as_mut().expect("set_hierarchy before upload");
         let mut stats = UploadStats::default();
         let dirty = front.take_dirty();
-        let indices = front.indices();
-        if model.indices.ensure(device, indices.len() as u64) {
-            stats.reallocated = true;
-            model.indices.write(queue, 0, indices);
-            stats.bytes += indices.len() as u64 * 12;
+        let count = front.triangle_count();
+        let mut scratch = Vec::new();
+        // Plain trees draw the front's indices as they are; trees with wedges their corners'
+        // wedges, found for the written ranges only.
+        let reallocated = model.indices.ensure(device, count as u64);
+        let indices = &mut model.indices;
+        let mut write = |range: std::ops::Range<u32>| {
+            let slice = match h.wedges {
+                None => &front.indices()[range.start as usize..range.end as usize],
+                Some(_) => {
+                    scratch.clear();
+                    front.vertices(h, range.clone(), &mut scratch);
+                    &scratch[..]
+                }
+            };
+            indices.write(queue, range.start as u64, slice);
+            stats.bytes += slice.len() as u64 * 12;
+        };
+        if reallocated {
+            write(0..count as u32);
         } else {
             for range in dirty {
-                let slice = &indices[range.start as usize..range.end as usize];
-                model.indices.write(queue, range.start as u64, slice);
-                stats.bytes += slice.len() as u64 * 12;
+                write(range);
             }
         }
-        model.triangles = indices.len() as u32;
+        stats.reallocated = reallocated;
+        model.triangles = count as u32;
         for &(u, p) in vertex_updates {
-            queue.write_buffer(&model.positions, u as u64 * 12, bytemuck::bytes_of(&p));
-            stats.bytes += 12;
+            let vertices = match &h.wedges {
+                None => u..u + 1,
+                Some(w) => w.start[u as usize]..w.start[u as usize + 1],
+            };
+            for v in vertices {
+                queue.write_buffer(&model.positions, v as u64 * 12, bytemuck::bytes_of(&p));
+                stats.bytes += 12;
+            }
         }
         stats
     }
@@ -850,4 +882,12 @@ fn globals_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             },
         ],
     })
+}
+
+/// Per-node values as per-vertex ones: the same for a plain tree, each wedge's node's with wedges.
+fn expand<T: Copy>(h: &Hierarchy, per_node: &[T]) -> Vec<T> {
+    match &h.wedges {
+        None => per_node.to_vec(),
+        Some(w) => w.node.iter().map(|&u| per_node[u as usize]).collect(),
+    }
 }

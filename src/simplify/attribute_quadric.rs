@@ -215,6 +215,44 @@ impl LocalAttributeQuadric {
         }
     }
 
+    /// `Σ area · |s − value|²` at `x` (relative to the quadric's origin) for the best values `s`
+    /// there, what is left below a millionth of its sums counting as none (as in
+    /// [`LocalAttributeQuadric::pair_mean_residual`]).
+    pub fn residual_at(&self, x: DVec3) -> f64 {
+        let w = self.spatial.weight() as f64;
+        if w <= 0.0 {
+            return 0.0;
+        }
+        let spatial = self.spatial.get().eval(x);
+        let fitted: f64 = self
+            .linear
+            .iter()
+            .map(|l| {
+                let s = glam::Vec4::from_array(*l).as_dvec4().dot(x.extend(1.0));
+                s * s
+            })
+            .sum();
+        let left = spatial - fitted / w;
+        if left > CANCELLATION * spatial {
+            left
+        } else {
+            0.0
+        }
+    }
+
+    /// The best texture coordinates at `x` (relative to the quadric's origin), in the channels'
+    /// units of length; `None` for a quadric of no area.
+    pub fn texture_at(&self, x: DVec3) -> Option<glam::DVec2> {
+        let w = self.spatial.weight() as f64;
+        let at = |l: &[f32; 4]| glam::Vec4::from_array(*l).as_dvec4().dot(x.extend(1.0)) / w;
+        (w > 0.0).then(|| glam::DVec2::new(at(&self.linear[3]), at(&self.linear[4])))
+    }
+
+    /// The area the quadric stands for.
+    pub fn weight(&self) -> f64 {
+        self.spatial.weight() as f64
+    }
+
     /// Back in `f64`, about the vertex at `at`, then moved to be about `origin`.
     pub fn about(&self, at: Vec3, origin: DVec3) -> AttributeQuadric {
         AttributeQuadric {

@@ -44,6 +44,18 @@ fn face_normal(p: &[Vec3], t: [u32; 3]) -> DVec3 {
 /// `sharp_dihedral_deg` is Tao et al.'s θ: an edge between two triangles whose dihedral (interior) angle
 /// is below θ is sharp. 180° is flat.
 pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: f32) -> Features {
+    classify_with_seams(positions, triangles, sharp_dihedral_deg, |_, _, _, _| false)
+}
+
+/// [`classify`], with `seam(f0, f1, u, v)` telling whether the edge `u`–`v` between faces `f0` and
+/// `f1` is a seam of their appearance (a texture chart's or a material's border): such an edge is
+/// a feature, constrained as a boundary is, although the surface goes on across it.
+pub fn classify_with_seams(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    sharp_dihedral_deg: f32,
+    seam: impl Fn(u32, u32, u32, u32) -> bool + Sync,
+) -> Features {
     let n = positions.len();
     // Face quadrics summed per vertex (sequential: scattered adds) while the directed half-edges
     // (lo, hi, face, forward?) are grouped by edge: placed by their lower vertex (a counting sort,
@@ -110,7 +122,7 @@ pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: 
                     }
                     // Normals at angle α meet at dihedral π − α; sharp when π − α < θ, i.e.
                     // cos α < cos(π − θ).
-                    n0.dot(n1) < cos_sharp
+                    n0.dot(n1) < cos_sharp || seam(*f0, *f1, u, v)
                 }
                 _ => true, // non-manifold
             };

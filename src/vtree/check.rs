@@ -75,6 +75,8 @@ pub enum TreeProblem {
     },
     #[error("the build does not end in one vertex without triangles")]
     DoesNotEnd,
+    #[error("wedge {wedge}: {what}")]
+    Wedge { wedge: usize, what: String },
 }
 
 /// Structure: one binary tree with one root, links consistent, indices in range, triangle groups
@@ -134,6 +136,80 @@ pub fn check(tree: &VertexTree) -> Result<(), TreeProblem> {
                 index: i,
                 corners: *t,
             });
+        }
+    }
+    match &tree.wedges {
+        Some(w) => check_wedges(tree, w),
+        None => Ok(()),
+    }
+}
+
+/// Wedges: one array length for all, each wedge's node in range and its parent a wedge of the
+/// node's parent (none at the root), every node with one wedge or more, colours and coordinates
+/// finite, textures and materials in range, and each triangle corner's leaf wedge one of its
+/// leaf's.
+fn check_wedges(tree: &VertexTree, w: &super::Wedges) -> Result<(), TreeProblem> {
+    let count = w.node.len();
+    let bad = |wedge: usize, what: String| Err(TreeProblem::Wedge { wedge, what });
+    if [
+        w.parent.len(),
+        w.uv.len(),
+        w.texture.len(),
+        w.material.len(),
+        w.color.len(),
+    ]
+    .iter()
+    .any(|&l| l != count)
+        || w.corners.len() != tree.triangles.len()
+    {
+        return bad(
+            0,
+            "its arrays differ in length from each other or the triangles".into(),
+        );
+    }
+    let textures = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
+    let materials = tree.materials.as_ref().map_or(1, |m| m.list.len());
+    let mut has = vec![false; tree.nodes.len()];
+    for i in 0..count {
+        let u = w.node[i] as usize;
+        let Some(node) = tree.nodes.get(u) else {
+            return bad(i, format!("its node {u} is out of range"));
+        };
+        has[u] = true;
+        let p = w.parent[i];
+        let parent_ok = if node.parent == NONE {
+            p == NONE
+        } else {
+            (p as usize) < count && w.node[p as usize] == node.parent
+        };
+        if !parent_ok {
+            return bad(
+                i,
+                format!("its parent {p} is not a wedge of node {u}'s parent"),
+            );
+        }
+        let texture = w.texture[i];
+        if (texture as usize >= textures && texture != crate::mesh::NO_TEXTURE)
+            || w.material[i] as usize >= materials
+            || !w.uv[i].iter().chain(&w.color[i]).all(|x| x.is_finite())
+        {
+            return bad(
+                i,
+                "its texture, material, coordinates or colour are invalid".into(),
+            );
+        }
+    }
+    if let Some(u) = has.iter().position(|h| !h) {
+        return bad(count, format!("node {u} has no wedge"));
+    }
+    for (t, (corners, leaves)) in w.corners.iter().zip(&tree.triangles).enumerate() {
+        for (&c, &leaf) in corners.iter().zip(leaves) {
+            if w.node.get(c as usize) != Some(&leaf) {
+                return bad(
+                    c as usize,
+                    format!("triangle {t}'s corner at leaf {leaf} names it"),
+                );
+            }
         }
     }
     Ok(())

@@ -5,7 +5,8 @@ use super::VertexTree;
 use crate::mesh::{Mesh, Part};
 use glam::Vec3;
 
-/// A front through the tree as a mesh: `nodes[i]` is the tree node behind vertex `i` of `mesh`.
+/// A front through the tree as a mesh: `nodes[i]` is the tree node behind vertex `i` of `mesh` (with
+/// wedges, several vertices may share a node: one a wedge).
 #[derive(Clone, Debug)]
 pub struct Cut {
     pub nodes: Vec<u32>,
@@ -46,11 +47,15 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
     let mut triangles = Vec::new();
     let mut seen = std::collections::HashSet::new();
     let mut dropped = 0;
+    // The tree's index of each kept triangle, for its wedges.
+    let mut sources = Vec::new();
     for u in n..count as u32 {
         if !split(u) {
             continue;
         }
-        for t in tree.vanishing(u) {
+        let k = (u - n) as usize;
+        let first = tree.vanish_offsets[k];
+        for (i, t) in tree.vanishing(u).iter().enumerate() {
             let c = t.map(|v| index[rep[v as usize] as usize]);
             let mut key = c;
             key.sort_unstable();
@@ -59,17 +64,46 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
                 continue;
             }
             triangles.push(c);
+            sources.push(first + i as u32);
         }
     }
+    if let Some(w) = &tree.wedges {
+        return wedge_cut(tree, w, &index, &sources, dropped);
+    }
+    let mesh = level_mesh(tree, &nodes, &nodes, None, triangles);
+    Cut {
+        nodes,
+        mesh,
+        dropped,
+    }
+}
+
+/// A level's mesh: vertex `i` at node `nodes[i]`, with the appearance of entry `looks[i]` of the
+/// wedges (when given) or of the tree's nodes.
+fn level_mesh(
+    tree: &VertexTree,
+    nodes: &[u32],
+    looks: &[u32],
+    wedges: Option<&super::Wedges>,
+    triangles: Vec<[u32; 3]>,
+) -> Mesh {
     let pick = |f: fn(&super::Node) -> Vec3| {
         nodes
             .iter()
             .map(|&u| f(&tree.nodes[u as usize]))
             .collect::<Vec<_>>()
     };
-    let mesh = Mesh {
+    let each = |f: &dyn Fn(usize) -> u32| looks.iter().map(|&x| f(x as usize)).collect();
+    let colors = || match wedges {
+        Some(w) => looks
+            .iter()
+            .map(|&x| Vec3::from_array(w.color[x as usize]))
+            .collect(),
+        None => pick(|n| Vec3::from_array(n.color)),
+    };
+    Mesh {
         positions: pick(|n| Vec3::from_array(n.position)),
-        colors: tree.has_colors.then(|| pick(|n| Vec3::from_array(n.color))),
+        colors: tree.has_colors.then(colors),
         normals: tree
             .has_normals
             .then(|| pick(|n| Vec3::from_array(n.normal))),
@@ -82,15 +116,18 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
         unreferenced_vertices: 0,
         one_sided: tree.one_sided,
         uvs: tree.appearance.as_ref().map(|a| {
-            nodes
+            looks
                 .iter()
-                .map(|&u| glam::Vec2::from_array(a.uvs[u as usize]))
+                .map(|&x| {
+                    let uv = wedges.map_or(&a.uvs, |w| &w.uv)[x as usize];
+                    glam::Vec2::from_array(uv)
+                })
                 .collect()
         }),
         texture_of: tree
             .appearance
             .as_ref()
-            .map(|a| nodes.iter().map(|&u| a.texture_of[u as usize]).collect()),
+            .map(|a| each(&|x| wedges.map_or(&a.texture_of, |w| &w.texture)[x])),
         textures: tree
             .appearance
             .as_ref()
@@ -102,10 +139,49 @@ pub fn cut_where(tree: &VertexTree, split: impl Fn(u32) -> bool) -> Cut {
         material_of: tree
             .materials
             .as_ref()
-            .map(|m| nodes.iter().map(|&u| m.of[u as usize]).collect()),
-    };
+            .map(|m| each(&|x| wedges.map_or(&m.of, |w| &w.material)[x])),
+    }
+}
+
+/// A cut of a tree with wedges: a vertex for each wedge its triangles' corners show (`sources`:
+/// the tree's index of each triangle kept; `index`: each front node's vertex, `u32::MAX` off the
+/// front), at its node's place with its own appearance.
+fn wedge_cut(
+    tree: &VertexTree,
+    w: &super::Wedges,
+    index: &[u32],
+    sources: &[u32],
+    dropped: usize,
+) -> Cut {
+    // Each wedge's wedge on the front (parents come after their children).
+    let mut front = vec![super::NONE; w.len()];
+    for x in (0..w.len()).rev() {
+        let p = w.parent[x];
+        front[x] = if index[w.node[x] as usize] != u32::MAX || p == super::NONE {
+            x as u32
+        } else {
+            front[p as usize]
+        };
+    }
+    let mut vertex = vec![u32::MAX; w.len()];
+    let mut shown: Vec<u32> = Vec::new();
+    let triangles: Vec<[u32; 3]> = sources
+        .iter()
+        .map(|&t| {
+            w.corners[t as usize].map(|leaf| {
+                let x = front[leaf as usize] as usize;
+                if vertex[x] == u32::MAX {
+                    vertex[x] = shown.len() as u32;
+                    shown.push(x as u32);
+                }
+                vertex[x]
+            })
+        })
+        .collect();
+    let node_of: Vec<u32> = shown.iter().map(|&x| w.node[x as usize]).collect();
+    let mesh = level_mesh(tree, &node_of, &shown, Some(w), triangles);
     Cut {
-        nodes,
+        nodes: node_of,
         mesh,
         dropped,
     }

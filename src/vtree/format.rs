@@ -10,10 +10,11 @@ use crate::simplify::Metric;
 use std::path::{Path, PathBuf};
 
 pub const MAGIC: [u8; 8] = *b"VUNIFYVT";
-/// The newest format version this build reads and writes: 2, a tree with appearance (the optional
-/// `UVTX`, `TEXS` and `MATL` sections); a tree without them is written as version 1, which readers
-/// from before appearance read too.
-pub const FORMAT_VERSION: u32 = 2;
+/// The newest format version this build reads and writes: 3, a tree with wedges (the optional
+/// `WEDG` section, per-corner appearance); a tree with appearance but no wedges is written as
+/// version 2 (the optional `UVTX`, `TEXS` and `MATL` sections), one without either as version 1,
+/// which readers from before appearance read too.
+pub const FORMAT_VERSION: u32 = 3;
 /// The oldest version this build reads.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 const TABLE_ENTRY: usize = 32;
@@ -30,8 +31,12 @@ const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"
 /// Sections a tree may have or not (readers before them skip them): a textured tree's per-node
 /// texture coordinates and texture (`u`, `v` as f32, the texture as u32), and its textures (a
 /// count, then each as a u64 length and its image file's bytes); and its materials (a u32 length
-/// and the materials as JSON, then each node's material as a u32).
-const OPTIONAL: [[u8; 4]; 3] = [*b"UVTX", *b"TEXS", *b"MATL"];
+/// and the materials as JSON, then each node's material as a u32); and its wedges (a u32 count,
+/// then per wedge its node and parent as u32, `u`, `v` as f32, texture and material as u32 and
+/// colour as three f32, one array after another; then each triangle's three leaf wedges as u32).
+const OPTIONAL: [[u8; 4]; 4] = [*b"UVTX", *b"TEXS", *b"MATL", *b"WEDG"];
+/// Bytes of one wedge in `WEDG`.
+const WEDGE_LEN: u64 = 36;
 const UVTX_LEN: u64 = 12;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,13 +129,29 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
         sections.push(&matl);
         tags.push(OPTIONAL[2]);
     }
+    let mut wedg = Vec::new();
+    if let Some(w) = &tree.wedges {
+        wedg.extend_from_slice(&(w.len() as u32).to_le_bytes());
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.node));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.parent));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.uv));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.texture));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.material));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.color));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.corners));
+        sections.push(&wedg);
+        tags.push(OPTIONAL[3]);
+    }
     let table_end = HEADER + TABLE_ENTRY * sections.len();
     let mut head = Vec::with_capacity(table_end + 4);
     head.extend_from_slice(&MAGIC);
     // Appearance is what version 2 added: a reader from before it would skip those sections as
     // unknown and draw the model untextured, so it is told the file is newer instead.
-    let version = if sections.len() > SECTIONS.len() {
+    // Wedges, version 3's, likewise.
+    let version = if tree.wedges.is_some() {
         FORMAT_VERSION
+    } else if sections.len() > SECTIONS.len() {
+        2
     } else {
         OLDEST_FORMAT_VERSION
     };
@@ -200,7 +221,7 @@ impl Cursor<'_> {
 /// Parses and validates `.vtree` bytes; `path` names the file in errors.
 pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
     let fail = Fail { path };
-    let ([meta, node_bytes, tri_bytes, off_bytes, part_bytes], [uvtx, texs, matl]) =
+    let ([meta, node_bytes, tri_bytes, off_bytes, part_bytes], [uvtx, texs, matl, wedg]) =
         sections(bytes, &fail)?;
     if meta.len() != META_LEN {
         return Err(fail.at(
@@ -252,14 +273,49 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
             _ => return Err(fail.invalid("UVTX and TEXS come together".into())),
         },
         materials: None,
+        wedges: None,
     };
     let mut tree = tree;
     if let Some(matl) = matl {
         let images = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
         tree.materials = Some(materials(matl, nodes, images, &fail)?);
     }
+    if let Some(wedg) = wedg {
+        tree.wedges = Some(wedges(wedg, tris, &fail)?);
+    }
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
+}
+
+/// The WEDG section, its lengths checked (what its numbers mean is checked with the tree, by
+/// [`super::check`]).
+fn wedges(wedg: &[u8], triangles: u32, fail: &Fail) -> Result<super::Wedges, FormatError> {
+    let count = (wedg.len() >= 4).then(|| Cursor { bytes: wedg }.u32(0) as u64);
+    let want = count.map(|c| 4 + c * WEDGE_LEN + triangles as u64 * 12);
+    let Some(count) = count.filter(|_| want == Some(wedg.len() as u64)) else {
+        return Err(fail.invalid(format!(
+            "section WEDG is {} bytes, which its wedge count and META's triangles do not add up to",
+            wedg.len()
+        )));
+    };
+    let count = count as usize;
+    let mut at = 4;
+    let mut take = |size: usize| {
+        let part = &wedg[at..at + count * size];
+        at += count * size;
+        part
+    };
+    let (node, parent, uv, texture, material, color) =
+        (take(4), take(4), take(8), take(4), take(4), take(12));
+    Ok(super::Wedges {
+        node: bytemuck::pod_collect_to_vec(node),
+        parent: bytemuck::pod_collect_to_vec(parent),
+        uv: bytemuck::pod_collect_to_vec(uv),
+        texture: bytemuck::pod_collect_to_vec(texture),
+        material: bytemuck::pod_collect_to_vec(material),
+        color: bytemuck::pod_collect_to_vec(color),
+        corners: bytemuck::pod_collect_to_vec(&wedg[at..]),
+    })
 }
 
 /// The MATL section, checked: its JSON, one material per node, in range, and every texture in
@@ -386,7 +442,7 @@ impl Fail<'_> {
 fn sections<'b>(
     bytes: &'b [u8],
     fail: &Fail,
-) -> Result<([&'b [u8]; 5], [Option<&'b [u8]>; 3]), FormatError> {
+) -> Result<([&'b [u8]; 5], [Option<&'b [u8]>; 4]), FormatError> {
     let len = bytes.len() as u64;
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
         return Err(fail.at(
@@ -436,7 +492,7 @@ fn sections<'b>(
     }
     let mut expected = (table_end + 4) as u64;
     let mut found: [Option<&[u8]>; 5] = [None; 5];
-    let mut optional: [Option<&[u8]>; 3] = [None; 3];
+    let mut optional: [Option<&[u8]>; 4] = [None; 4];
     for i in 0..count as usize {
         let at = HEADER + i * TABLE_ENTRY;
         let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");

@@ -89,6 +89,61 @@ pub struct VertexTree {
     pub appearance: Option<Appearance>,
     /// The input's materials and each node's, when it had them.
     pub materials: Option<Materials>,
+    /// Per-corner appearance, when the input had texture coordinates or materials (see [`Wedges`]);
+    /// `appearance` and `materials` then hold each node's first wedge's.
+    pub wedges: Option<Wedges>,
+}
+
+/// Hugues Hoppe's wedges (*Efficient implementation of progressive meshes*, Computers & Graphics
+/// 1998): the appearance of a vertex as its triangle corners see it. A vertex on a UV seam or a
+/// material border is one node with several wedges, one per side, so that the seam is one line of
+/// vertices at every cut and each side keeps its own texture coordinates.
+///
+/// Wedges form a forest parallel to the node tree: every wedge belongs to one node, and the wedges
+/// of a merge's two children become the parent's, two joined into one where a triangle that
+/// vanishes in the merge has one at each of its merging corners (they were one side of the seam).
+/// A corner of a triangle drawn at node `u` shows the ancestor at `u` of the corner's leaf wedge.
+///
+/// Numbering: the input's vertices are the leaf wedges (`0..leaf_wedges`), then the internal
+/// nodes' wedges in node order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wedges {
+    /// Each wedge's node.
+    pub node: Vec<u32>,
+    /// The wedge each becomes at its node's parent; [`NONE`] at the root.
+    pub parent: Vec<u32>,
+    pub uv: Vec<[f32; 2]>,
+    /// An index into [`Appearance::textures`], or [`crate::mesh::NO_TEXTURE`].
+    pub texture: Vec<u32>,
+    /// An index into [`Materials::list`] (0 when the tree has no materials).
+    pub material: Vec<u32>,
+    /// Linear RGB: the material's factor, vertex colour and texture's mean around the wedge, as
+    /// the builder weighs it and an untextured renderer draws it.
+    pub color: Vec<[f32; 3]>,
+    /// Per triangle of [`VertexTree::triangles`], its corners' leaf wedges.
+    pub corners: Vec<[u32; 3]>,
+}
+
+impl Wedges {
+    pub fn len(&self) -> usize {
+        self.node.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.node.is_empty()
+    }
+
+    /// The ancestor of leaf wedge `w` that belongs to node `u` (an ancestor of `w`'s leaf), by
+    /// walking up; `None` if `u` is not on the way.
+    pub fn at(&self, mut w: u32, u: u32) -> Option<u32> {
+        while self.node[w as usize] != u {
+            w = self.parent[w as usize];
+            if w == NONE {
+                return None;
+            }
+        }
+        Some(w)
+    }
 }
 
 /// A tree's materials (their textures index [`Appearance::textures`]) and each node's material: a

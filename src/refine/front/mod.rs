@@ -60,6 +60,9 @@ struct Record {
     next: [u32; 3],
     /// Its input corners (leaves), kept here because every operation on the triangle reads them.
     input: [u32; 3],
+    /// Its index in [`Hierarchy::triangles`] (what a renderer of wedges reads its corners' leaf
+    /// wedges by).
+    triangle: u32,
     /// Its draw slot, or `HIDDEN`, `DYING`.
     slot: u32,
 }
@@ -464,6 +467,28 @@ impl Front {
         &self.drawn.indices
     }
 
+    /// Drawn triangles `range` as a renderer draws them, into `out`: their corners' vertices in the
+    /// drawn vertex buffer, which are node ids ([`Front::indices`]) or, for a tree with wedges,
+    /// the wedges the corners show ([`super::hierarchy::HierarchyWedges`]).
+    pub fn vertices(&self, h: &Hierarchy, range: std::ops::Range<u32>, out: &mut Vec<[u32; 3]>) {
+        let range = range.start as usize..range.end as usize;
+        let Some(w) = &h.wedges else {
+            out.extend_from_slice(&self.drawn.indices[range]);
+            return;
+        };
+        out.extend(self.drawn.slot_record[range].iter().map(|&r| {
+            let rec = &self.records[r as usize];
+            w.vertices(rec.corner, w.corners[rec.triangle as usize])
+        }));
+    }
+
+    /// Every drawn triangle as a renderer draws it (see [`Front::vertices`]).
+    pub fn all_vertices(&self, h: &Hierarchy) -> Vec<[u32; 3]> {
+        let mut out = Vec::with_capacity(self.triangle_count());
+        self.vertices(h, 0..self.triangle_count() as u32, &mut out);
+        out
+    }
+
     /// The input triangle (leaf corners) behind each drawn one.
     pub fn drawn_input_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
         self.drawn
@@ -570,6 +595,7 @@ impl Front {
             corner: [NIL; 3],
             next: [NIL; 3],
             input: [NIL; 3],
+            triangle: NIL,
             slot: HIDDEN,
         };
         let [records, free, indices, slots] = &mut self.touched;

@@ -196,6 +196,7 @@ impl Front {
                 corner,
                 next: [heads[i], heads[1 - i], self.head[outside as usize]],
                 input,
+                triangle: t,
                 slot: HIDDEN,
             });
             heads[i] = Self::link(r, 0);

@@ -44,6 +44,10 @@ pub(super) struct PassView<'a> {
     pub(super) ends: &'a [PairEnd],
     /// Every slot's attribute quadric likewise (empty without colours).
     pub(super) colors: &'a [LocalAttributeQuadric],
+    /// With wedges, every slot's principal texture and each texture's scale likewise (empty
+    /// without).
+    pub(super) charts: &'a [u32],
+    pub(super) scales: &'a [f32],
     /// The ends of the pairs chosen in the pass.
     pub(super) picked: &'a SlotSet,
     pub(super) pricing: Pricing,
@@ -193,12 +197,13 @@ impl FinishBatch {
             let (fan_end, extra_end) = (self.fan_ends[i], self.extra_ends[i]);
             let fan = &self.fans[fan_start as usize..fan_end as usize];
             let (s, g) = (merged.slot as usize, merged.gone as usize);
-            let color = (!view.colors.is_empty()).then(|| {
-                PairEnd::merged_color(
+            let color = (!view.colors.is_empty()).then(|| match merged.principal {
+                Some((q, _)) => q,
+                None => PairEnd::merged_color(
                     (&view.ends[s], &view.colors[s]),
                     (&view.ends[g], &view.colors[g]),
                     merged.position,
-                )
+                ),
             });
             out.kept[i] = finish_node(
                 &mut node,
@@ -233,10 +238,24 @@ impl FinishBatch {
                     continue;
                 }
                 let partner = n.slot as usize;
-                let colors = color.as_ref().map(|c| [c, &view.colors[partner]]);
-                let cand = view
-                    .pricing
-                    .price(&end, &view.ends[partner], n.edge, colors);
+                let cand = match merged.principal {
+                    Some((_, chart)) => super::wedges::price(
+                        &view.pricing,
+                        (&end, color.as_ref(), chart),
+                        (
+                            &view.ends[partner],
+                            view.colors.get(partner),
+                            view.charts[partner],
+                        ),
+                        n.edge,
+                        view.scales,
+                    ),
+                    None => {
+                        let colors = color.as_ref().map(|c| [c, &view.colors[partner]]);
+                        view.pricing
+                            .price(&end, &view.ends[partner], n.edge, colors)
+                    }
+                };
                 entries.push(Entry {
                     cost: key(cand.cost),
                     a: merged.slot,
@@ -253,6 +272,15 @@ impl FinishBatch {
         self.extra_ends.clear();
         self
     }
+}
+
+/// What each merge of a pass leaves its survivor, in merge order: its kept samples and pricing
+/// data (attribute quadrics and, with wedges, principal textures: empty when there are none).
+struct Survived {
+    kept: Vec<Samples>,
+    ends: Vec<PairEnd>,
+    colors: Vec<LocalAttributeQuadric>,
+    charts: Vec<u32>,
 }
 
 /// What a pass's merging hands on to its re-pricing.
@@ -305,12 +333,19 @@ impl Builder<'_> {
             vec![LocalAttributeQuadric::default(); if colored { chosen.len() } else { 0 }];
         let ends = std::mem::take(&mut self.ends);
         let colors = std::mem::take(&mut self.colors);
+        let (charts, scales) = (
+            std::mem::take(&mut self.charts),
+            std::mem::take(&mut self.scales),
+        );
+        let mut new_charts = Vec::new();
         let PassMarks { picked, changed } = marks;
         let view = PassView {
             done,
             leaves: &self.mesh.positions,
             ends: &ends,
             colors: &colors,
+            charts: &charts,
+            scales: &scales,
             picked,
             pricing: self.pricing(),
         };
@@ -354,7 +389,9 @@ impl Builder<'_> {
                 let (a, b) = (e.a, e.b & SLOT);
                 let pending = self.pending(a, b);
                 let u = (first_new + survivors.len()) as u32;
-                let (node, merged) = self.merge_topology(a, b, &cand, u, pending);
+                let (node, mut merged) = self.merge_topology(a, b, &cand, u, pending);
+                merged.principal = self.merge_wedges(&merged, u);
+                new_charts.extend(merged.principal.map(|(_, chart)| chart));
                 changed.insert(a);
                 changed.insert(b);
                 survivors.push(merged.slot);
@@ -387,26 +424,40 @@ impl Builder<'_> {
             }
             entries
         });
-        self.ends = ends;
-        self.colors = colors;
+        (self.ends, self.colors) = (ends, colors);
+        (self.charts, self.scales) = (charts, scales);
         nodes.truncate(first_new + survivors.len());
         self.nodes = nodes;
-        for (k, (&slot, kept)) in survivors.iter().zip(kept).enumerate() {
+        let survived = Survived {
+            kept,
+            ends: new_ends,
+            colors: new_colors,
+            charts: new_charts,
+        };
+        self.store_pass(first_new, &survivors, survived);
+        PassResult {
+            early,
+            survivors,
+            priced_early,
+        }
+    }
+
+    /// Links a pass's new nodes (from `first_new`) to their children and stores what each merge
+    /// left its survivor.
+    fn store_pass(&mut self, first_new: usize, survivors: &[u32], survived: Survived) {
+        for (k, (&slot, kept)) in survivors.iter().zip(survived.kept).enumerate() {
             let u = (first_new + k) as u32;
             for c in self.nodes[u as usize].children {
                 self.nodes[c as usize].parent = u;
             }
             self.samples[slot as usize] = kept;
-            self.ends[slot as usize] = new_ends[k];
-            if colored {
-                self.colors[slot as usize] = new_colors[k];
-                self.note_texture(&new_colors[k]);
+            self.ends[slot as usize] = survived.ends[k];
+            if let Some(&chart) = survived.charts.get(k) {
+                self.charts[slot as usize] = chart;
             }
-        }
-        PassResult {
-            early,
-            survivors,
-            priced_early,
+            if let Some(&c) = survived.colors.get(k) {
+                self.colors[slot as usize] = c;
+            }
         }
     }
 }

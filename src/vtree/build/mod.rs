@@ -27,6 +27,7 @@ mod node;
 mod passes;
 mod pricing;
 mod queue;
+mod wedges;
 
 use super::{NONE, Node, PartInfo, VertexTree};
 use crate::mesh::Mesh;
@@ -173,14 +174,17 @@ struct Builder<'m> {
     mean_edge_length: f32,
     /// [`Pricing::color_scale`]: 0 for a mesh without colours.
     color_scale: f32,
-    /// On a textured mesh, each internal node's best texture coordinates by its attribute
-    /// quadric, in the quadric's units of length (see [`appearance`]), in node order from the
-    /// first internal node; empty otherwise.
-    texture_at: Vec<[f32; 2]>,
     stats: BuildStats,
     removed: Vec<(u32, crate::simplify::collapse::Vanish)>,
     /// Error samples of each live slot (input vertex ids, `NONE`-padded).
     samples: Vec<Samples>,
+    /// A mesh with texture coordinates or materials is built on welded positions, its vertices
+    /// carried as wedges (see [`wedges`]); `colors` then holds each slot's principal wedge's.
+    wedges: Option<wedges::WedgeState>,
+    /// With wedges, each slot's principal wedge's texture, and each texture's scale (see
+    /// [`texture_scales`]), as pricing reads them; empty otherwise.
+    charts: Vec<u32>,
+    scales: Vec<f32>,
 }
 
 impl Builder<'_> {
@@ -195,18 +199,27 @@ impl Builder<'_> {
 
     fn price(&self, a: u32, b: u32, edge: bool) -> Candidate {
         let (a, b) = (a as usize, b as usize);
+        if self.wedges.is_some() {
+            let ends = |s: usize| (&self.ends[s], self.colors.get(s), self.charts[s]);
+            return wedges::price(&self.pricing(), ends(a), ends(b), edge, &self.scales);
+        }
         let colors = (!self.colors.is_empty()).then(|| [&self.colors[a], &self.colors[b]]);
         self.pricing()
             .price(&self.ends[a], &self.ends[b], edge, colors)
     }
 
-    /// Records a new node's best texture coordinates from its attribute quadric `q`, on a
-    /// textured mesh.
-    fn note_texture(&mut self, q: &LocalAttributeQuadric) {
-        if self.mesh.uvs.is_some() {
-            self.texture_at
-                .push(q.best_texture().map_or([f32::NAN; 2], |t| t.to_array()));
-        }
+    /// With wedges, node `u`'s (the merge `merged`, whose vanished triangles are in `removed`):
+    /// its principal wedge's quadric and texture.
+    fn merge_wedges(&mut self, merged: &Merged, u: u32) -> Option<(LocalAttributeQuadric, u32)> {
+        let removed = &self.removed;
+        self.wedges.as_mut().map(|w| {
+            w.merge(
+                (merged.slot, merged.gone),
+                u,
+                merged.position,
+                removed.iter().map(|&(f, _)| f),
+            )
+        })
     }
 
     fn merges(&self) -> u32 {
@@ -221,16 +234,20 @@ impl Builder<'_> {
         let (mut node, merged) = self.merge_topology(a, b, cand, u, pending);
         let survivor = merged.slot;
         let (s, g) = (survivor as usize, merged.gone as usize);
-        let color = (!self.colors.is_empty()).then(|| {
-            PairEnd::merged_color(
-                (&self.ends[s], &self.colors[s]),
-                (&self.ends[g], &self.colors[g]),
-                merged.position,
-            )
-        });
+        let color = if let Some((q, chart)) = self.merge_wedges(&merged, u) {
+            self.charts[s] = chart;
+            (!self.colors.is_empty()).then_some(q)
+        } else {
+            (!self.colors.is_empty()).then(|| {
+                PairEnd::merged_color(
+                    (&self.ends[s], &self.colors[s]),
+                    (&self.ends[g], &self.colors[g]),
+                    merged.position,
+                )
+            })
+        };
         if let Some(c) = color {
             self.colors[s] = c;
-            self.note_texture(&c);
         }
         self.ends[s] = PairEnd::merged(&self.ends[s], &self.ends[g], merged.position);
         let mut fan = Vec::new();
@@ -326,6 +343,7 @@ impl Builder<'_> {
             gone: b,
             position: cand.position,
             across_gap,
+            principal: None,
         };
         (node, merged)
     }
@@ -404,9 +422,28 @@ pub fn build(
 /// model of the benchmarks (0.25 to 733 units across), whose trees stay the same bit for bit.
 const UNSCALED_DIAGONAL: (f32, f32) = (1.0 / 4096.0, 4096.0);
 
-/// [`build`] of a mesh near unit size.
+/// [`build`] of a mesh near unit size: one with texture coordinates or materials on its welded
+/// positions, its vertices carried as wedges.
 fn build_unit(
     mesh: &Mesh,
+    options: &BuildOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<(VertexTree, BuildStats), BuildError> {
+    if mesh.triangles.is_empty() {
+        return Err(BuildError::Empty);
+    }
+    if mesh.uvs.is_none() && mesh.material_of.is_none() {
+        return build_geometry(mesh, None, options, progress);
+    }
+    let mut welded = wedges::weld(mesh);
+    let geometry = std::mem::take(&mut welded.geometry);
+    build_geometry(&geometry, Some((mesh, welded)), options, progress)
+}
+
+/// [`build_unit`] on `mesh`, whose vertices are `source`'s welded when it is given.
+fn build_geometry(
+    mesh: &Mesh,
+    source: Option<(&Mesh, wedges::Welded)>,
     options: &BuildOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<(VertexTree, BuildStats), BuildError> {
@@ -422,7 +459,15 @@ fn build_unit(
 
     // 1. Features and quadrics.
     let clock = Instant::now();
-    let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+    let feats = match &source {
+        Some((_, welded)) => features::classify_with_seams(
+            &mesh.positions,
+            &mesh.triangles,
+            options.sharp_angle_deg,
+            |f0, f1, u, v| wedges::is_seam(welded, &mesh.triangles, [f0, f1], [u, v]),
+        ),
+        None => features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg),
+    };
     let features_secs = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     // 2. Close non-edge pairs (edges come from the working mesh itself). Found before the working mesh
@@ -444,20 +489,6 @@ fn build_unit(
     } else {
         Vec::new()
     };
-    // A non-edge merge never joins two texture charts: it would smear one texture over the other
-    // (vertices at a UV seam are two, at one place; docs/APPEARANCE.md).
-    let mut close = close;
-    if let Some(uvs) = &mesh.uvs {
-        let texture = |v: u32| mesh.texture_of.as_ref().map_or(0, |t| t[v as usize]);
-        close.retain(|&(a, b)| {
-            texture(a) == texture(b)
-                && uvs[a as usize].distance(uvs[b as usize]) <= CHART_UV_DISTANCE
-        });
-    }
-    // Nor two materials.
-    if let Some(m) = &mesh.material_of {
-        close.retain(|&(a, b)| m[a as usize] == m[b as usize]);
-    }
     stats.proximity_pairs = close.len() as u32;
     stats.phases.features = features_secs;
     stats.phases.close_pairs = clock.elapsed().as_secs_f64();
@@ -487,10 +518,8 @@ fn build_unit(
         Some(_) => options.color_weight.max(0.0) * diagonal,
         None => 0.0,
     };
-    let colors = match &mesh.colors {
-        Some(colors) if color_scale > 0.0 => attribute_quadrics(mesh, colors, color_scale),
-        _ => Vec::new(),
-    };
+    let input = source.as_ref().map(|(m, _)| *m);
+    let (colors, wedges, charts, scales) = appearance_state(mesh, source, color_scale);
     drop((quadrics, vertex_weight));
 
     // 3-5. Merge until one vertex is left.
@@ -510,7 +539,6 @@ fn build_unit(
         hybrid: options.hybrid,
         mean_edge_length,
         color_scale,
-        texture_at: Vec::new(),
         stats,
         removed: Vec::new(),
         samples: (0..n as u32)
@@ -520,6 +548,9 @@ fn build_unit(
                 s
             })
             .collect(),
+        wedges,
+        charts,
+        scales,
     };
     builder.stats.phases.leaves = clock.elapsed().as_secs_f64();
     // Every pair of the mesh, priced once: its edges and its close pairs are exactly the partners of
@@ -541,7 +572,7 @@ fn build_unit(
     }
     progress(n - 1, n - 1);
 
-    let (tree, mut stats) = builder.into_tree(options);
+    let (tree, mut stats) = builder.into_tree(options, input);
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((tree, stats))
 }
@@ -549,22 +580,26 @@ fn build_unit(
 impl Builder<'_> {
     /// The finished tree: the vanished triangles' corners read now, in node order (see
     /// [`Builder::vanished`]), and the input's parts.
-    fn into_tree(self, options: &BuildOptions) -> (VertexTree, BuildStats) {
+    fn into_tree(self, options: &BuildOptions, input: Option<&Mesh>) -> (VertexTree, BuildStats) {
         let Builder {
             mesh,
             mut stats,
             nodes,
             vanished,
             vanish_offsets,
-            texture_at,
+            wedges,
             ..
         } = self;
         let triangles = vanished
             .par_iter()
             .map(|&f| mesh.triangles[f as usize])
             .collect();
+        let wedges = wedges.map(|w| {
+            let firsts = w.firsts().to_vec();
+            (w.finish(&vanished), firsts)
+        });
         drop(vanished);
-        let tree = VertexTree {
+        let mut tree = VertexTree {
             leaf_count: mesh.positions.len() as u32,
             nodes,
             triangles,
@@ -575,6 +610,7 @@ impl Builder<'_> {
             one_sided: mesh.one_sided,
             appearance: None,
             materials: None,
+            wedges: None,
             parts: mesh
                 .parts
                 .iter()
@@ -584,85 +620,57 @@ impl Builder<'_> {
                 })
                 .collect(),
         };
-        let mut tree = tree;
-        tree.appearance = appearance(mesh, &tree.nodes, &texture_at);
-        tree.materials = materials(mesh, &tree.nodes);
+        if let (Some((wedges, firsts)), Some(input)) = (wedges, input) {
+            (tree.appearance, tree.materials) = wedges::node_appearance(input, &wedges, &firsts);
+            tree.wedges = Some(wedges);
+        }
         stats.nodes = tree.nodes.len() as u32;
         stats.depth = tree.depth();
         (tree, stats)
     }
 }
 
-/// Two vertices whose texture coordinates lie further apart than this are on different texture
-/// charts (or a chart's far sides): no non-edge merge joins them.
-const CHART_UV_DISTANCE: f32 = 0.05;
+/// Two wedges of one texture whose best coordinates at a merged place lie further apart than this
+/// are on different charts (or a chart's far sides): pricing does not expect the merge to join
+/// them (see [`wedges::price`]).
+pub(super) const CHART_UV_DISTANCE: f32 = 0.05;
 
-/// Each node's texture coordinates and texture, when the mesh has them: a leaf's are its vertex's;
-/// an internal node's, the texture of the child with more leaves (edge merges keep to one texture:
-/// its borders are split vertices) and the coordinates its attribute quadric finds best at its
-/// position (`texture_at`, divided by the texture's scale): where the node stands on the input's
-/// charts, as its colour is the colour there. Kept at one end of a long merge, the node takes the
-/// coordinates of that end, not the middle of the merge, so the texture does not slide. Where there
-/// is no such quadric, or the children have different textures, the children's mean weighted by
-/// their leaves (within one chart, a mean of coordinates is a point of it).
-fn appearance(mesh: &Mesh, nodes: &[Node], texture_at: &[[f32; 2]]) -> Option<super::Appearance> {
-    let uvs = mesh.uvs.as_ref()?;
-    let scales = texture_scales(mesh);
-    let n = mesh.positions.len();
-    let mut uv: Vec<[f32; 2]> = Vec::with_capacity(nodes.len());
-    let mut texture: Vec<u32> = Vec::with_capacity(nodes.len());
-    let mut leaves: Vec<u32> = Vec::with_capacity(nodes.len());
-    for v in 0..n {
-        uv.push(uvs[v].to_array());
-        texture.push(
-            mesh.texture_of
-                .as_ref()
-                .map_or(crate::mesh::NO_TEXTURE, |t| t[v]),
-        );
-        leaves.push(1);
-    }
-    debug_assert!(texture_at.is_empty() || texture_at.len() == nodes.len() - n);
-    for (k, node) in nodes[n..].iter().enumerate() {
-        let [a, b] = node.children.map(|c| c as usize);
-        let (wa, wb) = (leaves[a] as f32, leaves[b] as f32);
-        let mean =
-            (glam::Vec2::from_array(uv[a]) * wa + glam::Vec2::from_array(uv[b]) * wb) / (wa + wb);
-        let best = match (texture_at.get(k), scales.get(texture[a] as usize)) {
-            (Some(&[u, v]), Some(&scale)) if texture[a] == texture[b] && scale > 0.0 => {
-                Some(glam::Vec2::new(u, v) / scale).filter(|t| t.is_finite())
-            }
-            _ => None,
-        };
-        uv.push(best.unwrap_or(mean).to_array());
-        texture.push(if leaves[a] >= leaves[b] {
-            texture[a]
-        } else {
-            texture[b]
-        });
-        leaves.push(leaves[a] + leaves[b]);
-    }
-    Some(super::Appearance {
-        uvs: uv,
-        texture_of: texture,
-        textures: mesh.textures.clone(),
-    })
-}
-
-/// Each node's material, when the mesh has them: a leaf's is its vertex's, an internal node's that
-/// of the child with more leaves.
-fn materials(mesh: &Mesh, nodes: &[Node]) -> Option<super::Materials> {
-    let material_of = mesh.material_of.as_ref()?;
-    let mut of = material_of.clone();
-    let mut leaves = vec![1u32; of.len()];
-    for node in &nodes[of.len()..] {
-        let [a, b] = node.children.map(|c| c as usize);
-        of.push(if leaves[a] >= leaves[b] { of[a] } else { of[b] });
-        leaves.push(leaves[a] + leaves[b]);
-    }
-    Some(super::Materials {
-        list: mesh.materials.clone(),
-        of,
-    })
+/// What pricing weighs of appearance: each slot's attribute quadric (empty when appearance is
+/// not weighed), and with wedges (`source`: the input and its welding) their state, each slot's
+/// principal texture and each texture's scale.
+#[allow(clippy::type_complexity)]
+fn appearance_state(
+    mesh: &Mesh,
+    source: Option<(&Mesh, wedges::Welded)>,
+    color_scale: f32,
+) -> (
+    Vec<LocalAttributeQuadric>,
+    Option<wedges::WedgeState>,
+    Vec<u32>,
+    Vec<f32>,
+) {
+    let quadrics_of = |m: &Mesh| match &m.colors {
+        Some(colors) if color_scale > 0.0 => attribute_quadrics(m, colors, color_scale),
+        _ => Vec::new(),
+    };
+    let Some((input, welded)) = source else {
+        return (quadrics_of(mesh), None, Vec::new(), Vec::new());
+    };
+    let scales = texture_scales(input);
+    let state = wedges::WedgeState::new(
+        input,
+        welded,
+        quadrics_of(input),
+        scales.clone(),
+        color_scale,
+    );
+    let colors = if color_scale > 0.0 {
+        state.principal_quadrics()
+    } else {
+        Vec::new()
+    };
+    let charts = state.charts();
+    (colors, Some(state), charts, scales)
 }
 
 /// An input colour as the builder reads it: colours are meant to lie in [0, 1], and one beyond (a

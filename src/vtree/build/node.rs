@@ -64,6 +64,12 @@ pub(super) struct Merged {
     /// No triangle joined the two slots: a merge across a gap (a proximity pair or a loose edge),
     /// whose triangles now stretch over empty space.
     pub(super) across_gap: bool,
+    /// With wedges, the survivor's principal wedge's attribute quadric and texture (see
+    /// [`super::wedges`]).
+    pub(super) principal: Option<(
+        crate::simplify::attribute_quadric::LocalAttributeQuadric,
+        u32,
+    )>,
 }
 
 /// The triangles around a live slot, read once: corners and their slots, for the cone, every

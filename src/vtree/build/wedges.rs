@@ -1,0 +1,441 @@
+//! Wedges in the build (see [`crate::vtree::Wedges`]): a mesh with texture coordinates or
+//! materials is built on its welded positions, one leaf per place, and its vertices ride along as
+//! wedges, joined where a merge closes a triangle between two of them.
+//!
+//! What prices a merge is each slot's *principal* wedge (its heaviest): its attribute quadric
+//! stands for the slot's appearance. Two principals that a merge will join (an edge, one texture,
+//! their best coordinates at the merged place within a chart's reach of each other) are priced as
+//! one quadric, as Garland and Heckbert do; two that stay apart (the sides of a seam, a merge
+//! across a gap) each by its own residual at the merged place, which is how far each side's
+//! texture slides, and never by the mismatch between their charts.
+
+use super::CHART_UV_DISTANCE;
+use crate::mesh::{Mesh, NO_TEXTURE, Part};
+use crate::simplify::attribute_quadric::LocalAttributeQuadric;
+use crate::simplify::metric::{Candidate, PairEnd, Pricing};
+use crate::vtree::{NONE, Wedges};
+use glam::{DVec3, Vec2, Vec3};
+use smallvec::SmallVec;
+
+/// A mesh's positions welded, with each corner's wedge.
+pub(super) struct Welded {
+    /// The geometry the tree is built on: one vertex per place (with the mean of its wedges'
+    /// normals and colours), the triangles whose corners stay apart.
+    pub geometry: Mesh,
+    /// Per triangle of `geometry`, its corners' wedges: the input's vertices.
+    pub corners: Vec<[u32; 3]>,
+    /// Per wedge, its leaf.
+    pub leaf: Vec<u32>,
+    /// How many leaves (places) there are.
+    pub leaves: usize,
+}
+
+/// Welds `mesh`'s vertices that share a position (bit for bit). A triangle whose corners weld
+/// together (two wedges of one place, a sliver of no area) is left out.
+pub(super) fn weld(mesh: &Mesh) -> Welded {
+    let mut ids: rustc_hash::FxHashMap<[u32; 3], u32> = Default::default();
+    let mut positions = Vec::new();
+    let leaf: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            *ids.entry(p.to_array().map(f32::to_bits))
+                .or_insert_with(|| {
+                    positions.push(*p);
+                    positions.len() as u32 - 1
+                })
+        })
+        .collect();
+    drop(ids);
+    let n = positions.len();
+    let mut triangles = Vec::with_capacity(mesh.triangles.len());
+    let mut corners = Vec::with_capacity(mesh.triangles.len());
+    let mut keep = |range: std::ops::Range<u32>| {
+        let start = triangles.len() as u32;
+        for t in &mesh.triangles[range.start as usize..range.end as usize] {
+            let g = t.map(|w| leaf[w as usize]);
+            if g[0] != g[1] && g[1] != g[2] && g[0] != g[2] {
+                triangles.push(g);
+                corners.push(*t);
+            }
+        }
+        start..triangles.len() as u32
+    };
+    let parts = if mesh.parts.is_empty() {
+        keep(0..mesh.triangles.len() as u32);
+        Vec::new()
+    } else {
+        mesh.parts
+            .iter()
+            .map(|p| Part {
+                name: p.name.clone(),
+                triangles: keep(p.triangles.clone()),
+            })
+            .collect()
+    };
+    let mean = |values: &[Vec3]| {
+        let mut sum = vec![(Vec3::ZERO, 0u32); n];
+        for (w, &l) in leaf.iter().enumerate() {
+            sum[l as usize].0 += values[w];
+            sum[l as usize].1 += 1;
+        }
+        sum.into_iter()
+            .map(|(s, k)| s / k.max(1) as f32)
+            .collect::<Vec<_>>()
+    };
+    let geometry = Mesh {
+        colors: mesh.colors.as_deref().map(mean),
+        normals: mesh.normals.as_deref().map(|ns| {
+            mean(ns)
+                .into_iter()
+                .map(|v| v.normalize_or_zero())
+                .collect()
+        }),
+        positions,
+        triangles,
+        parts,
+        one_sided: mesh.one_sided,
+        ..Mesh::default()
+    };
+    Welded {
+        geometry,
+        corners,
+        leaf,
+        leaves: n,
+    }
+}
+
+/// The wedges as a build grows them.
+pub(super) struct WedgeState {
+    /// Per triangle of the geometry, its corners' leaf wedges.
+    pub corners: Vec<[u32; 3]>,
+    /// Per wedge, its attribute quadric about `at` (default, of no area, when appearance is not
+    /// weighed).
+    quadric: Vec<LocalAttributeQuadric>,
+    at: Vec<Vec3>,
+    node: Vec<u32>,
+    parent: Vec<u32>,
+    /// Towards the wedge that stands for this one now (a union-find's, compressed as it is read).
+    rep: Vec<u32>,
+    texture: Vec<u32>,
+    material: Vec<u32>,
+    uv: Vec<[f32; 2]>,
+    color: Vec<[f32; 3]>,
+    /// Each live slot's wedges, its principal (heaviest) first.
+    of_slot: Vec<SmallVec<[u32; 2]>>,
+    /// Per texture, its length per unit of texture space (see `texture_scales`).
+    scales: Vec<f32>,
+    /// Each node's first wedge (its principal), in node order.
+    first: Vec<u32>,
+    color_scale: f32,
+}
+
+impl WedgeState {
+    /// The leaf wedges of `mesh` (the input, one wedge a vertex) over the welded leaves `leaf`,
+    /// with their attribute quadrics (`quadrics`, about each vertex; empty when appearance is not
+    /// weighed).
+    pub fn new(
+        mesh: &Mesh,
+        welded: Welded,
+        quadrics: Vec<LocalAttributeQuadric>,
+        scales: Vec<f32>,
+        color_scale: f32,
+    ) -> WedgeState {
+        let count = mesh.positions.len();
+        let leaves = welded.leaves;
+        let quadric = if quadrics.is_empty() {
+            vec![LocalAttributeQuadric::default(); count]
+        } else {
+            quadrics
+        };
+        let mut of_slot: Vec<SmallVec<[u32; 2]>> = vec![SmallVec::new(); leaves];
+        for (w, &l) in welded.leaf.iter().enumerate() {
+            of_slot[l as usize].push(w as u32);
+        }
+        for list in &mut of_slot {
+            principal_first(list, &quadric);
+        }
+        let texture: Vec<u32> = match &mesh.texture_of {
+            Some(t) => t.clone(),
+            None => vec![NO_TEXTURE; count],
+        };
+        let first = of_slot
+            .iter()
+            .map(|l| l.first().copied().unwrap_or(NONE))
+            .collect();
+        WedgeState {
+            corners: welded.corners,
+            at: mesh.positions.clone(),
+            node: welded.leaf,
+            parent: vec![NONE; count],
+            rep: (0..count as u32).collect(),
+            texture,
+            material: mesh.material_of.clone().unwrap_or_else(|| vec![0; count]),
+            uv: match &mesh.uvs {
+                Some(uvs) => uvs.iter().map(|t| t.to_array()).collect(),
+                None => vec![[0.0; 2]; count],
+            },
+            color: match &mesh.colors {
+                Some(c) => c
+                    .iter()
+                    .map(|&c| super::input_color(c).to_array())
+                    .collect(),
+                None => vec![[1.0; 3]; count],
+            },
+            quadric,
+            of_slot,
+            scales,
+            first,
+            color_scale,
+        }
+    }
+
+    /// The principal wedge's quadric of each slot, as pricing reads it.
+    pub fn principal_quadrics(&self) -> Vec<LocalAttributeQuadric> {
+        self.of_slot
+            .iter()
+            .map(|l| {
+                l.first()
+                    .map_or_else(Default::default, |&w| self.quadric[w as usize])
+            })
+            .collect()
+    }
+
+    /// Each slot's principal wedge's texture, as pricing reads it.
+    pub fn charts(&self) -> Vec<u32> {
+        self.of_slot
+            .iter()
+            .map(|l| l.first().map_or(NO_TEXTURE, |&w| self.texture[w as usize]))
+            .collect()
+    }
+
+    /// The live wedge that leaf wedge `w` has become.
+    fn find(&mut self, mut w: u32) -> u32 {
+        while self.rep[w as usize] != w {
+            let up = self.rep[self.rep[w as usize] as usize];
+            self.rep[w as usize] = up;
+            w = up;
+        }
+        w
+    }
+
+    /// Slot `a` and slot `b` merge into node `u` at `position`, `vanished` the triangles that
+    /// vanish: the wedges of the two become node `u`'s, those at the two merging corners of a
+    /// vanishing triangle joined. Returns the new principal's quadric (about `position`) and
+    /// texture.
+    pub fn merge(
+        &mut self,
+        (a, b): (u32, u32),
+        u: u32,
+        position: Vec3,
+        vanished: impl Iterator<Item = u32>,
+    ) -> (LocalAttributeQuadric, u32) {
+        let wa = std::mem::take(&mut self.of_slot[a as usize]);
+        let wb = std::mem::take(&mut self.of_slot[b as usize]);
+        let all: SmallVec<[u32; 4]> = wa.iter().chain(&wb).copied().collect();
+        // A union-find over `all`'s indices.
+        let mut group: SmallVec<[usize; 4]> = (0..all.len()).collect();
+        fn root(group: &[usize], mut i: usize) -> usize {
+            while group[i] != i {
+                i = group[i];
+            }
+            i
+        }
+        for f in vanished {
+            let live = self.corners[f as usize].map(|w| self.find(w));
+            let at_a = live.iter().find_map(|w| wa.iter().position(|x| x == w));
+            let at_b = live.iter().find_map(|w| wb.iter().position(|x| x == w));
+            if let (Some(i), Some(j)) = (at_a, at_b) {
+                let (ri, rj) = (root(&group, i), root(&group, wa.len() + j));
+                group[ri.max(rj)] = ri.min(rj);
+            }
+        }
+        let p = position.as_dvec3();
+        let mut made: SmallVec<[u32; 2]> = SmallVec::new();
+        for r in 0..all.len() {
+            if root(&group, r) != r {
+                continue;
+            }
+            let members: SmallVec<[u32; 4]> = (0..all.len())
+                .filter(|&i| root(&group, i) == r)
+                .map(|i| all[i])
+                .collect();
+            made.push(self.join(&members, u, position, p));
+        }
+        principal_first(&mut made, &self.quadric);
+        let principal = made[0];
+        self.first.push(principal);
+        self.of_slot[a as usize] = made;
+        (
+            self.quadric[principal as usize],
+            self.texture[principal as usize],
+        )
+    }
+
+    /// A new wedge of node `u` at `position`, joining `members`.
+    fn join(&mut self, members: &[u32], u: u32, position: Vec3, p: DVec3) -> u32 {
+        let mut sum = self.quadric[members[0] as usize].about(self.at[members[0] as usize], p);
+        for &m in &members[1..] {
+            sum += self.quadric[m as usize].about(self.at[m as usize], p);
+        }
+        let q = LocalAttributeQuadric::new(&sum);
+        let heaviest = *members
+            .iter()
+            .max_by(|x, y| {
+                let (wx, wy) = (self.weight(**x), self.weight(**y));
+                wx.total_cmp(&wy).then(y.cmp(x))
+            })
+            .unwrap_or(&members[0]);
+        let texture = self.texture[heaviest as usize];
+        let total: f64 = members.iter().map(|&m| self.weight(m)).sum();
+        let share = |m: u32| {
+            if total > 0.0 {
+                (self.weight(m) / total) as f32
+            } else {
+                1.0 / members.len() as f32
+            }
+        };
+        let mean_uv: Vec2 = members
+            .iter()
+            .map(|&m| Vec2::from_array(self.uv[m as usize]) * share(m))
+            .sum();
+        let one_texture = members.iter().all(|&m| self.texture[m as usize] == texture);
+        let scale = self.scales.get(texture as usize).copied().unwrap_or(0.0);
+        let uv = match q.best_texture() {
+            Some(t) if one_texture && scale > 0.0 => Some(t / scale).filter(|t| t.is_finite()),
+            _ => None,
+        }
+        .unwrap_or(mean_uv);
+        let mean_color: Vec3 = members
+            .iter()
+            .map(|&m| Vec3::from_array(self.color[m as usize]) * share(m))
+            .sum();
+        let color = q.best_color(self.color_scale as f64).unwrap_or(mean_color);
+        let w = self.node.len() as u32;
+        self.quadric.push(q);
+        self.at.push(position);
+        self.node.push(u);
+        self.parent.push(NONE);
+        self.rep.push(w);
+        self.texture.push(texture);
+        self.material.push(self.material[heaviest as usize]);
+        self.uv.push(uv.to_array());
+        self.color.push(color.to_array());
+        for &m in members {
+            self.parent[m as usize] = w;
+            self.rep[m as usize] = w;
+        }
+        w
+    }
+
+    fn weight(&self, w: u32) -> f64 {
+        self.quadric[w as usize].weight()
+    }
+
+    /// Each node's first wedge (leaves, then internal nodes in order).
+    pub fn firsts(&self) -> &[u32] {
+        &self.first
+    }
+
+    /// The finished wedges, with the corners of `vanished` (the tree's triangles, by geometry
+    /// triangle index, in tree order).
+    pub fn finish(self, vanished: &[u32]) -> Wedges {
+        Wedges {
+            corners: vanished.iter().map(|&f| self.corners[f as usize]).collect(),
+            node: self.node,
+            parent: self.parent,
+            uv: self.uv,
+            texture: self.texture,
+            material: self.material,
+            color: self.color,
+        }
+    }
+}
+
+/// Puts the heaviest wedge of `list` first (the lowest id among equals), the rest in id order.
+fn principal_first(list: &mut [u32], quadric: &[LocalAttributeQuadric]) {
+    list.sort_unstable();
+    let best = (0..list.len())
+        .max_by(|&i, &j| {
+            let (wi, wj) = (
+                quadric[list[i] as usize].weight(),
+                quadric[list[j] as usize].weight(),
+            );
+            wi.total_cmp(&wj).then(j.cmp(&i))
+        })
+        .unwrap_or(0);
+    list[..=best].rotate_right(1);
+}
+
+/// Whether the edge `u`–`v` between the geometry's faces `f` is a seam: a corner of one face at
+/// `u` or `v` shows another wedge than the other face's corner there.
+pub(super) fn is_seam(welded: &Welded, t: &[[u32; 3]], f: [u32; 2], edge: [u32; 2]) -> bool {
+    let wedge = |f: u32, v: u32| {
+        let k = t[f as usize].iter().position(|&x| x == v).unwrap_or(0);
+        welded.corners[f as usize][k]
+    };
+    edge.iter().any(|&v| wedge(f[0], v) != wedge(f[1], v))
+}
+
+/// Each node's texture coordinates, texture and material: its first wedge's.
+pub(super) fn node_appearance(
+    input: &Mesh,
+    wedges: &Wedges,
+    firsts: &[u32],
+) -> (
+    Option<crate::vtree::Appearance>,
+    Option<crate::vtree::Materials>,
+) {
+    let appearance = input.uvs.as_ref().map(|_| crate::vtree::Appearance {
+        uvs: firsts.iter().map(|&w| wedges.uv[w as usize]).collect(),
+        texture_of: firsts.iter().map(|&w| wedges.texture[w as usize]).collect(),
+        textures: input.textures.clone(),
+    });
+    let materials = input.material_of.as_ref().map(|_| crate::vtree::Materials {
+        list: input.materials.clone(),
+        of: firsts
+            .iter()
+            .map(|&w| wedges.material[w as usize])
+            .collect(),
+    });
+    (appearance, materials)
+}
+
+/// What merging two slots costs with wedges (`(end, principal quadric, principal texture)` each;
+/// no quadrics when appearance is not weighed), `scales` each texture's (see the module's text):
+/// two principals expected to join (an edge, one texture, their best coordinates at the merged
+/// place within a chart's reach) are priced as one quadric; two that stay apart each by its own
+/// residual there.
+pub(super) fn price(
+    pricing: &Pricing,
+    (a, ca, chart_a): (&PairEnd, Option<&LocalAttributeQuadric>, u32),
+    (b, cb, chart_b): (&PairEnd, Option<&LocalAttributeQuadric>, u32),
+    edge: bool,
+    scales: &[f32],
+) -> Candidate {
+    let mut cand = pricing.price(a, b, edge, None);
+    let (Some(ca), Some(cb)) = (ca, cb) else {
+        return cand;
+    };
+    let x = cand.position.as_dvec3();
+    let (xa, xb) = (x - a.position.as_dvec3(), x - b.position.as_dvec3());
+    let reach =
+        scales.get(chart_a as usize).copied().unwrap_or(0.0) as f64 * CHART_UV_DISTANCE as f64;
+    let joined = edge
+        && chart_a == chart_b
+        && match (ca.texture_at(xa), cb.texture_at(xb)) {
+            (Some(ta), Some(tb)) => ta.distance(tb) <= reach,
+            _ => true,
+        };
+    cand.cost += if joined {
+        LocalAttributeQuadric::pair_mean_residual(ca, xa, cb, xb)
+    } else {
+        let w = ca.weight() + cb.weight();
+        if w > 0.0 {
+            (ca.residual_at(xa) + cb.residual_at(xb)) / w
+        } else {
+            0.0
+        }
+    };
+    cand
+}
