@@ -34,7 +34,9 @@ pub fn run(args: InfoArgs) -> Result<()> {
             "file": file, "leaves": tree.leaf_count, "nodes": tree.nodes.len(), "triangles": tree.triangles.len(),
             "depth": tree.depth(), "metric": tree.metric.name(), "colors": tree.has_colors, "normals": tree.has_normals,
             "parts": tree.parts, "textured": tree.appearance.is_some(), "images": textures,
-            "materials": materials, "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
+            "materials": materials, "wedges": tree.wedges.as_ref().map(|w| w.len()),
+            "leaf_wedges": tree.wedges.as_ref().map(|w| w.node.iter().filter(|&&u| u < tree.leaf_count).count()),
+            "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
         return Ok(());
@@ -60,6 +62,15 @@ pub fn run(args: InfoArgs) -> Result<()> {
     );
     if tree.appearance.is_some() {
         println!("textures   texture coordinates, {textures} images");
+    }
+    if let Some(w) = &tree.wedges {
+        let leaves = w.node.iter().filter(|&&u| u < tree.leaf_count).count();
+        println!(
+            "wedges     {} ({leaves} at the leaves: the input's vertices; {} at the {} internal nodes)",
+            w.len(),
+            w.len() - leaves,
+            tree.internal_count()
+        );
     }
     if !materials.is_empty() {
         println!("materials  {}", materials.len());

@@ -211,10 +211,7 @@ impl FinishBatch {
                 &merged,
                 fan,
                 view.leaves,
-                (
-                    view.pricing.color_scale,
-                    color.and_then(|c| c.best_color(view.pricing.color_scale as f64)),
-                ),
+                super::wedges::node_color(view.pricing.color_scale, color, merged.principal),
             );
             out.nodes[i] = node;
             let end = PairEnd::merged(&view.ends[s], &view.ends[g], merged.position);

@@ -209,6 +209,31 @@ impl WedgeState {
             .collect()
     }
 
+    /// Asks for what merging slots `a` and `b` will read, in the stages of
+    /// `Builder::prefetch_merge`: their lists of wedges, then those wedges' data. Only a hint.
+    pub fn prefetch_merge(&self, a: u32, b: u32, stage: u32) {
+        for s in [a as usize, b as usize] {
+            if stage == 1 {
+                crate::prefetch(&self.of_slot[s]);
+            } else if stage == 2 {
+                for &w in self.of_slot[s].iter().take(4) {
+                    let w = w as usize;
+                    let q = &self.quadric[w] as *const LocalAttributeQuadric as usize;
+                    // Every cache line of the quadric (124 bytes may span three).
+                    for line in (q..q + std::mem::size_of::<LocalAttributeQuadric>()).step_by(64) {
+                        crate::prefetch_address(line);
+                    }
+                    crate::prefetch_address(q + std::mem::size_of::<LocalAttributeQuadric>() - 1);
+                    crate::prefetch(&self.at[w]);
+                    crate::prefetch(&self.texture[w]);
+                    crate::prefetch(&self.uv[w]);
+                    crate::prefetch(&self.color[w]);
+                    crate::prefetch(&self.material[w]);
+                }
+            }
+        }
+    }
+
     /// The live wedge that leaf wedge `w` has become.
     fn find(&mut self, mut w: u32) -> u32 {
         while self.rep[w as usize] != w {
@@ -250,17 +275,32 @@ impl WedgeState {
                 group[ri.max(rj)] = ri.min(rj);
             }
         }
+        // Wedges of one chart whose maps agree at the merged place are one wedge now, whether a
+        // triangle joined them or not (a merge across a gap inside a chart): kept apart, the
+        // lists of wedges would grow with every such merge up the tree.
+        if wa.len() * wb.len() <= ATTRIBUTE_JOINS {
+            for (i, &x) in wa.iter().enumerate() {
+                for (j, &y) in wb.iter().enumerate() {
+                    let (ri, rj) = (root(&group, i), root(&group, wa.len() + j));
+                    if ri != rj && self.agree(x, y, position) {
+                        group[ri.max(rj)] = ri.min(rj);
+                    }
+                }
+            }
+        }
+        // The groups, each a run of `all`'s indices sorted by their root.
+        let mut order: SmallVec<[(usize, u32); 4]> =
+            (0..all.len()).map(|i| (root(&group, i), all[i])).collect();
+        order.sort_unstable();
         let p = position.as_dvec3();
         let mut made: SmallVec<[u32; 2]> = SmallVec::new();
-        for r in 0..all.len() {
-            if root(&group, r) != r {
-                continue;
+        let mut members: SmallVec<[u32; 4]> = SmallVec::new();
+        for (k, &(r, w)) in order.iter().enumerate() {
+            members.push(w);
+            if order.get(k + 1).is_none_or(|&(next, _)| next != r) {
+                made.push(self.join(&members, u, position, p));
+                members.clear();
             }
-            let members: SmallVec<[u32; 4]> = (0..all.len())
-                .filter(|&i| root(&group, i) == r)
-                .map(|i| all[i])
-                .collect();
-            made.push(self.join(&members, u, position, p));
         }
         principal_first(&mut made, &self.quadric);
         let principal = made[0];
@@ -270,6 +310,29 @@ impl WedgeState {
             self.quadric[principal as usize],
             self.texture[principal as usize],
         )
+    }
+
+    /// Whether wedges `x` and `y` show one texture and material and their quadrics' best
+    /// coordinates at `position` lie within a chart's reach of each other (their stored ones,
+    /// without quadrics).
+    fn agree(&self, x: u32, y: u32, position: Vec3) -> bool {
+        let (x, y) = (x as usize, y as usize);
+        let texture = self.texture[x];
+        if texture != self.texture[y] || self.material[x] != self.material[y] {
+            return false;
+        }
+        let p = position.as_dvec3();
+        let at = |w: usize| self.quadric[w].texture_at(p - self.at[w].as_dvec3());
+        match (at(x), at(y)) {
+            (Some(tx), Some(ty)) => {
+                let scale = self.scales.get(texture as usize).copied().unwrap_or(0.0) as f64;
+                tx.distance(ty) <= scale * CHART_UV_DISTANCE as f64
+            }
+            _ => {
+                Vec2::from_array(self.uv[x]).distance(Vec2::from_array(self.uv[y]))
+                    <= CHART_UV_DISTANCE
+            }
+        }
     }
 
     /// A new wedge of node `u` at `position`, joining `members`.
@@ -310,7 +373,8 @@ impl WedgeState {
             .iter()
             .map(|&m| Vec3::from_array(self.color[m as usize]) * share(m))
             .sum();
-        let color = q.best_color(self.color_scale as f64).unwrap_or(mean_color);
+        let scale = super::color_scale_of(self.color_scale, texture != NO_TEXTURE);
+        let color = q.best_color(scale as f64).unwrap_or(mean_color);
         let w = self.node.len() as u32;
         self.quadric.push(q);
         self.at.push(position);
@@ -351,6 +415,11 @@ impl WedgeState {
         }
     }
 }
+
+/// A merge compares each wedge of one side with each of the other for [`WedgeState::agree`] when
+/// there are at most this many pairs (lists stay short where it runs; a node of many charts
+/// costs no quadratic time).
+const ATTRIBUTE_JOINS: usize = 64;
 
 /// Puts the heaviest wedge of `list` first (the lowest id among equals), the rest in id order.
 fn principal_first(list: &mut [u32], quadric: &[LocalAttributeQuadric]) {
@@ -438,4 +507,16 @@ pub(super) fn price(
         }
     };
     cand
+}
+
+/// What a node's colour and colour error are weighed by (`color_scale`, or its share on a textured
+/// principal wedge, see `color_scale_of`), and its colour: its attribute quadric's (`color`) best.
+pub(super) fn node_color(
+    color_scale: f32,
+    color: Option<LocalAttributeQuadric>,
+    principal: Option<(LocalAttributeQuadric, u32)>,
+) -> (f32, Option<Vec3>) {
+    let textured = principal.is_some_and(|(_, texture)| texture != NO_TEXTURE);
+    let scale = super::color_scale_of(color_scale, textured);
+    (scale, color.and_then(|c| c.best_color(scale as f64)))
 }
