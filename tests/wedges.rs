@@ -226,3 +226,29 @@ proptest! {
         }
     }
 }
+
+/// The wedges of the root node.
+fn root_wedges(tree: &VertexTree) -> usize {
+    let w = tree.wedges.as_ref().unwrap();
+    w.node.iter().filter(|&&u| u == tree.root()).count()
+}
+
+#[test]
+fn charts_stay_apart_to_the_root_and_one_chart_across_a_gap_joins() {
+    // Two charts: their maps disagree everywhere (u differs by 0.5), so the root has two wedges.
+    assert_eq!(root_wedges(&build(&two_charts())), 2);
+    // One chart (A's map on both halves) cut in two along x = 3 with a hairline gap: no triangle
+    // joins the halves' wedges, but their maps agree where the non-edge merges put them.
+    let mut mesh = two_charts();
+    let uvs = mesh.uvs.as_mut().unwrap();
+    // The right half's copies of the seam vertices move by a hair.
+    for (uv, p) in uvs.iter_mut().zip(&mut mesh.positions) {
+        if p.x == 3.0 && uv.x > 0.5 {
+            p.x += 1e-4;
+        }
+        *uv = chart_a(*p);
+    }
+    let tree = build(&mesh);
+    assert_eq!(tree.leaf_count, 56, "the halves share no place");
+    assert_eq!(root_wedges(&tree), 1);
+}

@@ -146,9 +146,8 @@ impl Wedges {
     }
 }
 
-/// A tree's materials (their textures index [`Appearance::textures`]) and each node's material: a
-/// leaf's is its vertex's, an internal node's its larger child's (edge merges keep to one material,
-/// whose borders are split vertices; no non-edge merge below the components' joins crosses one).
+/// A tree's materials (their textures index [`Appearance::textures`]) and each node's material:
+/// its first wedge's (see [`Wedges`], which give each corner its own).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Materials {
     pub list: Vec<crate::mesh::Material>,
@@ -157,7 +156,7 @@ pub struct Materials {
 }
 
 /// What a textured tree carries besides its nodes: per node, texture coordinates and a texture
-/// (see `build::appearance`); and the textures' image files.
+/// (its first wedge's, see [`Wedges`]); and the textures' image files.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Appearance {
     pub uvs: Vec<[f32; 2]>,

@@ -509,8 +509,12 @@ pub(super) fn price(
     cand
 }
 
-/// What a node's colour and colour error are weighed by (`color_scale`, or its share on a textured
-/// principal wedge, see `color_scale_of`), and its colour: its attribute quadric's (`color`) best.
+/// What a node's colour error is weighed by, and its colour: its attribute quadric's (`color`)
+/// best, in the quadric's scale (a share of `color_scale` on a textured principal wedge, see
+/// `color_scale_of`). The error keeps the whole `color_scale`: the colour of a textured node is the
+/// texture's mean there, and how far it changes is how much texture detail a cut would swim over,
+/// which the screen-space test should see (the textured bunny's fly-in at τ = 1 px: 42.5 dB mean on
+/// 7,860 triangles with the share, 49.2 on 16,837 without).
 pub(super) fn node_color(
     color_scale: f32,
     color: Option<LocalAttributeQuadric>,
@@ -518,5 +522,5 @@ pub(super) fn node_color(
 ) -> (f32, Option<Vec3>) {
     let textured = principal.is_some_and(|(_, texture)| texture != NO_TEXTURE);
     let scale = super::color_scale_of(color_scale, textured);
-    (scale, color.and_then(|c| c.best_color(scale as f64)))
+    (color_scale, color.and_then(|c| c.best_color(scale as f64)))
 }
