@@ -252,3 +252,70 @@ fn charts_stay_apart_to_the_root_and_one_chart_across_a_gap_joins() {
     assert_eq!(tree.leaf_count, 56, "the halves share no place");
     assert_eq!(root_wedges(&tree), 1);
 }
+
+/// A unit cube as exporters write a hard-edged one: 24 vertices, four per face with its face's
+/// normal, one material.
+fn hard_cube() -> Mesh {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut triangles = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let (u, v) = n.any_orthonormal_pair();
+            let (u, v) = if u.cross(v).dot(n) > 0.0 {
+                (u, v)
+            } else {
+                (v, u)
+            };
+            let base = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(0.5 * (n + a * u + b * v));
+                normals.push(n);
+            }
+            triangles.push([base, base + 1, base + 2]);
+            triangles.push([base, base + 2, base + 3]);
+        }
+    }
+    let count = positions.len();
+    let mut mesh = Mesh::from_triangles(positions, triangles);
+    mesh.normals = Some(normals);
+    mesh.colors = Some(vec![Vec3::new(0.2, 0.8, 0.3); count]);
+    mesh.materials = vec![Material::default()];
+    mesh.material_of = Some(vec![0; count]);
+    mesh
+}
+
+#[test]
+fn a_hard_edge_stays_hard_at_every_level() {
+    let mesh = hard_cube();
+    let tree = build(&mesh);
+    let w = tree
+        .wedges
+        .as_ref()
+        .expect("a mesh with materials has wedges");
+    assert_eq!(tree.leaf_count, 8, "one leaf per corner of the cube");
+    assert_eq!(
+        w.node.iter().filter(|&&u| u < 8).count(),
+        24,
+        "three wedges a corner"
+    );
+    // Every triangle of every level that is still a face of the cube is drawn with its face's
+    // normal at all three corners: no join smooths a crease.
+    for merges in 0..tree.leaf_count {
+        let m = vtree::cut_at_merges(&tree, merges).mesh;
+        let normals = m.normals.as_ref().expect("normals");
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            let face = (b - a).cross(c - a).normalize();
+            for &v in t {
+                let n = normals[v as usize];
+                assert!(
+                    n.dot(face) > 0.999 || face.abs().max_element() < 0.999,
+                    "after {merges} merges: corner normal {n} on face {face}"
+                );
+            }
+        }
+    }
+}

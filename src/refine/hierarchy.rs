@@ -65,6 +65,9 @@ pub struct HierarchyWedges {
     pub parent: Vec<u32>,
     /// Per triangle of [`Hierarchy::triangles`], its corners' leaf wedges (rotated likewise).
     pub corners: Vec<[u32; 3]>,
+    /// Each wedge's unit normal, encoded as [`Hierarchy::normal`] (its node's where the input had
+    /// none).
+    pub normal: Vec<[i16; 2]>,
 }
 
 impl HierarchyWedges {
@@ -686,6 +689,7 @@ fn wedges_of(
             node,
             parent,
             corners,
+            normal: Vec::new(),
         },
         renumbered,
     )
@@ -713,7 +717,17 @@ fn wedge_vertices(
     keyed: &[(u32, [u32; 3], u32, usize)],
     layer: &[f32],
 ) -> (Vec<[u8; 4]>, Vec<[f32; 4]>, Option<HierarchyWedges>) {
-    let (hw, renumbered) = wedges_of(w, new_id, keyed);
+    let (mut hw, renumbered) = wedges_of(w, new_id, keyed);
+    hw.normal = vec![NO_NORMAL; w.len()];
+    for (old, &new) in renumbered.iter().enumerate() {
+        let own = Vec3::from_array(w.normal[old]);
+        let n = if own == Vec3::ZERO {
+            Vec3::from_array(tree.nodes[w.node[old] as usize].normal)
+        } else {
+            own
+        };
+        hw.normal[new as usize] = encode_normal(n);
+    }
     let (c, uv) = wedge_appearance(w, &renumbered, layer, tree.materials.is_some());
     let c = if tree.has_colors { c } else { Vec::new() };
     (c, uv, Some(hw))

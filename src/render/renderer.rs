@@ -331,7 +331,9 @@ impl Renderer {
         // With wedges the vertices are wedges, each at its node (see `HierarchyWedges`).
         let (positions, normals, debug) = (
             expand(h, &h.position),
-            expand(h, &h.normal),
+            h.wedges
+                .as_ref()
+                .map_or_else(|| h.normal.clone(), |w| w.normal.clone()),
             expand(h, &debug),
         );
         let colors = if has_colors || h.wedges.is_none() {

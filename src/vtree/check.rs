@@ -191,11 +191,15 @@ fn check_wedges(tree: &VertexTree, w: &super::Wedges) -> Result<(), TreeProblem>
         let texture = w.texture[i];
         if (texture as usize >= textures && texture != crate::mesh::NO_TEXTURE)
             || w.material[i] as usize >= materials
-            || !w.uv[i].iter().chain(&w.color[i]).all(|x| x.is_finite())
+            || !w.uv[i]
+                .iter()
+                .chain(&w.color[i])
+                .chain(&w.normal[i])
+                .all(|x| x.is_finite())
         {
             return bad(
                 i,
-                "its texture, material, coordinates or colour are invalid".into(),
+                "its texture, material, coordinates, colour or normal are invalid".into(),
             );
         }
     }

@@ -104,9 +104,20 @@ fn level_mesh(
     Mesh {
         positions: pick(|n| Vec3::from_array(n.position)),
         colors: tree.has_colors.then(colors),
-        normals: tree
-            .has_normals
-            .then(|| pick(|n| Vec3::from_array(n.normal))),
+        normals: tree.has_normals.then(|| {
+            let by_node = pick(|n| Vec3::from_array(n.normal));
+            match wedges {
+                Some(w) => looks
+                    .iter()
+                    .zip(by_node)
+                    .map(|(&x, node)| {
+                        let own = Vec3::from_array(w.normal[x as usize]);
+                        if own == Vec3::ZERO { node } else { own }
+                    })
+                    .collect(),
+                None => by_node,
+            }
+        }),
         radiosity: None,
         parts: vec![Part {
             name: "lod".into(),

@@ -33,10 +33,10 @@ const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"
 /// count, then each as a u64 length and its image file's bytes); and its materials (a u32 length
 /// and the materials as JSON, then each node's material as a u32); and its wedges (a u32 count,
 /// then per wedge its node and parent as u32, `u`, `v` as f32, texture and material as u32 and
-/// colour as three f32, one array after another; then each triangle's three leaf wedges as u32).
+/// colour and normal as three f32 each, one array after another; then each triangle's three leaf wedges as u32).
 const OPTIONAL: [[u8; 4]; 4] = [*b"UVTX", *b"TEXS", *b"MATL", *b"WEDG"];
 /// Bytes of one wedge in `WEDG`.
-const WEDGE_LEN: u64 = 36;
+const WEDGE_LEN: u64 = 48;
 const UVTX_LEN: u64 = 12;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -138,6 +138,7 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
         wedg.extend_from_slice(bytemuck::cast_slice(&w.texture));
         wedg.extend_from_slice(bytemuck::cast_slice(&w.material));
         wedg.extend_from_slice(bytemuck::cast_slice(&w.color));
+        wedg.extend_from_slice(bytemuck::cast_slice(&w.normal));
         wedg.extend_from_slice(bytemuck::cast_slice(&w.corners));
         sections.push(&wedg);
         tags.push(OPTIONAL[3]);
@@ -305,8 +306,15 @@ fn wedges(wedg: &[u8], triangles: u32, fail: &Fail) -> Result<super::Wedges, For
         at += count * size;
         part
     };
-    let (node, parent, uv, texture, material, color) =
-        (take(4), take(4), take(8), take(4), take(4), take(12));
+    let (node, parent, uv, texture, material, color, normal) = (
+        take(4),
+        take(4),
+        take(8),
+        take(4),
+        take(4),
+        take(12),
+        take(12),
+    );
     Ok(super::Wedges {
         node: bytemuck::pod_collect_to_vec(node),
         parent: bytemuck::pod_collect_to_vec(parent),
@@ -314,6 +322,7 @@ fn wedges(wedg: &[u8], triangles: u32, fail: &Fail) -> Result<super::Wedges, For
         texture: bytemuck::pod_collect_to_vec(texture),
         material: bytemuck::pod_collect_to_vec(material),
         color: bytemuck::pod_collect_to_vec(color),
+        normal: bytemuck::pod_collect_to_vec(normal),
         corners: bytemuck::pod_collect_to_vec(&wedg[at..]),
     })
 }

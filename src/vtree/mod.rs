@@ -120,6 +120,9 @@ pub struct Wedges {
     /// Linear RGB: the material's factor, vertex colour and texture's mean around the wedge, as
     /// the builder weighs it and an untextured renderer draws it.
     pub color: Vec<[f32; 3]>,
+    /// Unit normal, zero where the input had none (its node's normal stands in): the sides of a
+    /// crease are wedges too, so a hard edge stays hard.
+    pub normal: Vec<[f32; 3]>,
     /// Per triangle of [`VertexTree::triangles`], its corners' leaf wedges.
     pub corners: Vec<[u32; 3]>,
 }

@@ -121,6 +121,8 @@ pub(super) struct WedgeState {
     material: Vec<u32>,
     uv: Vec<[f32; 2]>,
     color: Vec<[f32; 3]>,
+    /// Unit normals (zero where the input has none).
+    normal: Vec<[f32; 3]>,
     /// Each live slot's wedges, its principal (heaviest) first.
     of_slot: Vec<SmallVec<[u32; 2]>>,
     /// Per texture, its length per unit of texture space (see `texture_scales`).
@@ -175,6 +177,10 @@ impl WedgeState {
                 Some(uvs) => uvs.iter().map(|t| t.to_array()).collect(),
                 None => vec![[0.0; 2]; count],
             },
+            normal: match &mesh.normals {
+                Some(n) => n.iter().map(|v| v.normalize_or_zero().to_array()).collect(),
+                None => vec![[0.0; 3]; count],
+            },
             color: match &mesh.colors {
                 Some(c) => c
                     .iter()
@@ -228,6 +234,7 @@ impl WedgeState {
                     crate::prefetch(&self.texture[w]);
                     crate::prefetch(&self.uv[w]);
                     crate::prefetch(&self.color[w]);
+                    crate::prefetch(&self.normal[w]);
                     crate::prefetch(&self.material[w]);
                 }
             }
@@ -312,13 +319,22 @@ impl WedgeState {
         )
     }
 
-    /// Whether wedges `x` and `y` show one texture and material and their quadrics' best
+    /// Whether wedges `x` and `y` show one texture and material, normals on one side of a crease,
+    /// and their quadrics' best
     /// coordinates at `position` lie within a chart's reach of each other (their stored ones,
     /// without quadrics).
     fn agree(&self, x: u32, y: u32, position: Vec3) -> bool {
         let (x, y) = (x as usize, y as usize);
         let texture = self.texture[x];
         if texture != self.texture[y] || self.material[x] != self.material[y] {
+            return false;
+        }
+        // A crease's sides keep their own normals (no normals: nothing to keep).
+        let (nx, ny) = (
+            Vec3::from_array(self.normal[x]),
+            Vec3::from_array(self.normal[y]),
+        );
+        if nx != Vec3::ZERO && ny != Vec3::ZERO && nx.dot(ny) < CREASE_COS {
             return false;
         }
         let p = position.as_dvec3();
@@ -375,6 +391,10 @@ impl WedgeState {
             .sum();
         let scale = super::color_scale_of(self.color_scale, texture != NO_TEXTURE);
         let color = q.best_color(scale as f64).unwrap_or(mean_color);
+        let normal: Vec3 = members
+            .iter()
+            .map(|&m| Vec3::from_array(self.normal[m as usize]) * share(m))
+            .sum();
         let w = self.node.len() as u32;
         self.quadric.push(q);
         self.at.push(position);
@@ -385,6 +405,7 @@ impl WedgeState {
         self.material.push(self.material[heaviest as usize]);
         self.uv.push(uv.to_array());
         self.color.push(color.to_array());
+        self.normal.push(normal.normalize_or_zero().to_array());
         for &m in members {
             self.parent[m as usize] = w;
             self.rep[m as usize] = w;
@@ -412,6 +433,7 @@ impl WedgeState {
             texture: self.texture,
             material: self.material,
             color: self.color,
+            normal: self.normal,
         }
     }
 }
@@ -420,6 +442,10 @@ impl WedgeState {
 /// there are at most this many pairs (lists stay short where it runs; a node of many charts
 /// costs no quadratic time).
 const ATTRIBUTE_JOINS: usize = 64;
+
+/// Two wedges whose normals are further apart than this cosine's angle (about 37°) are the sides
+/// of a crease, which no join by attributes closes.
+const CREASE_COS: f32 = 0.8;
 
 /// Puts the heaviest wedge of `list` first (the lowest id among equals), the rest in id order.
 fn principal_first(list: &mut [u32], quadric: &[LocalAttributeQuadric]) {
