@@ -12,6 +12,7 @@ pub mod display;
 pub mod export;
 #[doc(hidden)]
 pub mod fixtures;
+pub mod generate;
 pub mod measure;
 pub mod mesh;
 pub mod radiosity;
