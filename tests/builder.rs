@@ -234,9 +234,13 @@ fn builds_are_identical_on_any_number_of_threads() {
     let mesh = grid(160, 160, |x, y| {
         (x * 0.11).sin() * (y * 0.07).cos() * 3.0 + 0.01 * x * y
     });
-    let on = |threads: usize| on_threads(threads, || build(&mesh, Metric::Qem));
-    let (one, four) = (on(1), on(4));
-    assert_tree_invariants(&mesh, &one);
+    assert_same_on_one_and_four_threads(&mesh, || build(&mesh, Metric::Qem));
+}
+
+/// `build` on one thread and on four gives the same valid tree, bit for bit.
+fn assert_same_on_one_and_four_threads(mesh: &Mesh, build: impl Fn() -> VertexTree + Sync) {
+    let (one, four) = (on_threads(1, &build), on_threads(4, &build));
+    assert_tree_invariants(mesh, &one);
     assert_eq!(one.nodes, four.nodes);
     assert_eq!(one.triangles, four.triangles);
     assert_eq!(one.vanish_offsets, four.vanish_offsets);
@@ -613,4 +617,116 @@ fn nodes_take_the_texture_coordinates_of_their_place() {
             node.position
         );
     }
+}
+
+/// `vtree::build_partitioned` with no progress report.
+fn build_in_cells(mesh: &Mesh, cell_triangles: usize) -> (VertexTree, vtree::BuildStats) {
+    vtree::build_partitioned(
+        mesh,
+        &BuildOptions::default(),
+        cell_triangles,
+        &mut |_, _| {},
+    )
+    .unwrap()
+}
+
+/// A 64 × 8 grid in cells of at most 512 triangles: the kd-tree splits its 1024 triangles at their
+/// median centroid, the column x = 32, whose 9 vertices have triangles in both cells.
+/// ```text
+///   y = 8  +-------------+-------------+
+///          |   cell 0    |   cell 1    |
+///   y = 0  +-------------+-------------+
+///        x = 0        x = 32        x = 64
+/// ```
+/// Each cell builds to half of its 288 free vertices with the column locked, so the first
+/// 2 × 144 merges neither move a column vertex nor join the two sides; the root's level, numbered
+/// after them, does. (The whole build, with nothing locked, merges across the column much sooner.)
+#[test]
+fn cells_lock_their_border_until_the_level_that_joins_them() {
+    let mesh = grid(64, 8, |x, y| {
+        0.3 * (x * 0.9).sin() * (y * 1.3).cos() + 0.01 * x
+    });
+    let (tree, stats) = build_in_cells(&mesh, 512);
+    assert_eq!((stats.cells, stats.levels), (2, 2));
+    assert_tree_invariants(&mesh, &tree);
+    // The sides each node's leaves lie on: 1 left of the column, 2 right of it, 4 on it.
+    let first_across = |tree: &VertexTree| {
+        let mut sides = vec![0u8; tree.nodes.len()];
+        for v in 0..tree.leaf_count {
+            sides[v as usize] = match (v % 65).cmp(&32) {
+                std::cmp::Ordering::Less => 1,
+                std::cmp::Ordering::Greater => 2,
+                std::cmp::Ordering::Equal => 4,
+            };
+        }
+        (tree.leaf_count as usize..tree.nodes.len())
+            .find(|&u| {
+                let [a, b] = tree.nodes[u].children;
+                sides[u] = sides[a as usize] | sides[b as usize];
+                sides[u] != 1 && sides[u] != 2
+            })
+            .unwrap()
+            - tree.leaf_count as usize
+    };
+    assert!(
+        first_across(&tree) >= 288,
+        "merge {} crosses the border",
+        first_across(&tree)
+    );
+    assert!(first_across(&build(&mesh, Metric::Qem)) < 288);
+}
+
+/// Random scenes (separate bumpy grids, so the root level joins parts no cell holds together)
+/// and random soups (non-manifold, repeated edges) in cells of 1 to 7 triangles, many levels: one
+/// root, every cut valid, the deviation bound, the input back at the leaves.
+#[test]
+fn cells_build_one_valid_tree_on_random_meshes() {
+    for seed in 0..48u64 {
+        let cell = 1 + (seed % 7) as usize;
+        let mesh = random_scene(seed);
+        let (tree, stats) = build_in_cells(&mesh, cell);
+        if mesh.triangle_count() > cell {
+            assert!(stats.cells >= 2, "seed {seed}");
+        }
+        assert_tree_invariants(&mesh, &tree);
+        let soup = random_soup(seed, 24, 40);
+        if soup.triangle_count() > 0 {
+            let (tree, _) = build_in_cells(&soup, cell);
+            assert_tree_invariants(&soup, &tree);
+        }
+    }
+}
+
+/// Cells far apart (a gap no close pair spans) still end in one root: the root level widens.
+#[test]
+fn cells_of_separate_parts_join_at_the_root() {
+    let part = grid(12, 12, |x, y| (x * 0.5).sin() * (y * 0.4).cos());
+    let mesh = scene(&[part.clone(), part.clone(), part], 100.0);
+    let (tree, stats) = build_in_cells(&mesh, 100);
+    assert!(
+        stats.cells >= 6 && stats.levels >= 3,
+        "{} cells",
+        stats.cells
+    );
+    assert!(stats.widenings >= 1);
+    assert_tree_invariants(&mesh, &tree);
+    assert_eq!(tree.parts.len(), 3);
+}
+
+/// The cells build at once, yet the tree is the same bit for bit on one thread and on four.
+#[test]
+fn cell_builds_are_identical_on_any_number_of_threads() {
+    let mesh = grid(120, 120, |x, y| {
+        (x * 0.11).sin() * (y * 0.07).cos() * 3.0 + 0.01 * x * y
+    });
+    assert_same_on_one_and_four_threads(&mesh, || build_in_cells(&mesh, 2000).0);
+}
+
+/// A mesh that fits in one cell is built whole: the same tree as `vtree::build`.
+#[test]
+fn a_mesh_within_one_cell_is_built_whole() {
+    let mesh = grid(10, 10, |x, y| (x * 0.5).sin() * y * 0.1);
+    let (cells, stats) = build_in_cells(&mesh, 200);
+    assert_eq!(stats.cells, 0);
+    assert_eq!(cells.nodes, build(&mesh, Metric::Qem).nodes);
 }

@@ -96,6 +96,44 @@ fn build_info_extract_measure() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--bound must be"));
 }
 
+/// `--cell-triangles`: the cessna in cells of at most 2000 triangles (8 cells, 4 levels) is one
+/// tree that `info --check` passes, its 10 % level close to the whole build's; 0 is refused.
+#[test]
+fn build_in_cells() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let tree = tmp("cessna-cells.vtree");
+    let t = tree.to_str().unwrap();
+    let args = ["build", model, "-o", t, "--cell-triangles", "2000"];
+    let said = ok(&vunify(&args));
+    assert!(
+        said.contains("cells      8 of at most 2000 triangles, 4 levels"),
+        "{said}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&vunify(&[&args[..], &["--json"]].concat()))).unwrap();
+    assert_eq!(json["build"]["nodes"], 2 * 6795 - 1);
+    assert_eq!(json["build"]["cells"], 8);
+    let info: serde_json::Value =
+        serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap();
+    assert_eq!(info["checked"], true);
+    let lod = tmp("cessna-cells-10.obj");
+    let l = lod.to_str().unwrap();
+    ok(&vunify(&["extract", t, "--ratio", "0.1", "-o", l]));
+    let max = hausdorff_max(model, l);
+    assert!(max > 0.0 && max < 0.05, "10 % in cells: {max}");
+    for (bad, says) in [
+        (&["--cell-triangles", "0"][..], "at least 1"),
+        (
+            &["--cell-triangles", "100", "--schedule", "greedy"][..],
+            "drop --schedule greedy",
+        ),
+    ] {
+        let out = vunify(&[&["build", model, "-o", t][..], bad].concat());
+        assert_eq!(out.status.code(), Some(1));
+        assert!(String::from_utf8_lossy(&out.stderr).contains(says));
+    }
+}
+
 #[test]
 fn bad_input_is_a_clear_error() {
     let bad = tmp("bad.obj");
@@ -136,6 +174,7 @@ fn help_explains_every_option() {
         "--w-dist",
         "--w-feature",
         "--no-weld",
+        "--cell-triangles",
         "qem-midpoint",
         "hybrid",
     ] {

@@ -47,6 +47,13 @@ pub struct BuildArgs {
     /// texture's slide over the surface counts as its length, in the merge order (0: shape only).
     #[arg(long, default_value_t = BuildOptions::default().color_weight)]
     color_weight: f32,
+    /// Build in cells of at most this many triangles, split along a kd-tree, every core building
+    /// cells at once; each cell's border is locked, then sibling cells are joined and built on,
+    /// level by level, to one root (docs/VERTEX_TREE.md). The result is one vertex tree like the
+    /// whole build's, of slightly lower quality. Meshes with vertex colours, texture coordinates or
+    /// materials, and meshes of at most N triangles, are built whole. Default: the whole mesh at once.
+    #[arg(long, value_name = "N")]
+    cell_triangles: Option<usize>,
     /// Keep vertices with identical positions apart (welding is on by default).
     #[arg(long)]
     no_weld: bool,
@@ -99,7 +106,20 @@ pub fn run(args: BuildArgs) -> Result<()> {
     let clean = CleanOptions {
         weld: !args.no_weld,
     };
-    build_and_write(&args.input, &output, &options, &clean, args.json)
+    if args.cell_triangles == Some(0) {
+        bail!("--cell-triangles must be at least 1");
+    }
+    if args.cell_triangles.is_some() && options.schedule == Schedule::Greedy {
+        bail!("--cell-triangles builds with the passes schedule; drop --schedule greedy");
+    }
+    build_and_write(
+        &args.input,
+        &output,
+        &options,
+        &clean,
+        args.cell_triangles,
+        args.json,
+    )
 }
 
 /// The input's file name with its mesh extension (and any `.xz`) replaced by `.vtree`.
@@ -120,6 +140,7 @@ pub fn build_and_write(
     output: &Path,
     options: &BuildOptions,
     clean: &CleanOptions,
+    cell_triangles: Option<usize>,
     json: bool,
 ) -> Result<()> {
     let t0 = Instant::now();
@@ -133,7 +154,11 @@ pub fn build_and_write(
         "{msg} [{bar:40}] {pos}/{len} merges ({eta})",
     );
     bar.set_message("building");
-    let (tree, stats) = vtree::build(&mesh, options, &mut |done, _| bar.set_position(done as u64))?;
+    let mut progress = |done: usize, _| bar.set_position(done as u64);
+    let (tree, stats) = match cell_triangles {
+        Some(cells) => vtree::build_partitioned(&mesh, options, cells, &mut progress)?,
+        None => vtree::build(&mesh, options, &mut progress)?,
+    };
     bar.finish_and_clear();
     vtree::write(&tree, output).with_context(|| format!("cannot write {}", output.display()))?;
     let peak = peak_memory_bytes();
@@ -171,6 +196,14 @@ pub fn build_and_write(
         "tree       {} nodes ({} leaves), one root, depth {}",
         stats.nodes, stats.leaves, stats.depth
     );
+    if stats.cells > 0 {
+        println!(
+            "cells      {} of at most {} triangles, {} levels",
+            stats.cells,
+            cell_triangles.unwrap_or(0),
+            stats.levels
+        );
+    }
     println!(
         "pairs      {} feature edges, {} close non-edge pairs, {} flip deferrals, {} widenings",
         stats.feature_edges, stats.proximity_pairs, stats.flip_deferrals, stats.widenings

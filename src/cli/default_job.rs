@@ -39,6 +39,7 @@ pub fn run() -> Result<()> {
         &tree_file,
         &BuildOptions::default(),
         &CleanOptions::default(),
+        None,
         false,
     )?;
     if super::has_display() {

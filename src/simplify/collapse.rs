@@ -196,6 +196,15 @@ impl Collapser {
         self.extras_mut(b).push(a);
     }
 
+    /// Every live triangle, as its index and current slot corners.
+    pub fn live_faces(&self) -> impl Iterator<Item = (u32, [u32; 3])> + '_ {
+        self.alive_face
+            .iter()
+            .enumerate()
+            .filter(|&(_, &alive)| alive)
+            .map(|(f, _)| (f as u32, self.corners[f]))
+    }
+
     /// The live triangles around a live slot, as current slot corners.
     pub fn faces_of(&self, slot: u32) -> impl Iterator<Item = (u32, [u32; 3])> + Clone + '_ {
         // Lists are exact: `unify` unlinks a vanished triangle from all its corners at once.

@@ -97,8 +97,6 @@ pub fn classify_with_seams(
         .for_each(|group| group.sort_unstable());
 
     let cos_sharp = (std::f64::consts::PI - (sharp_dihedral_deg as f64).to_radians()).cos();
-    let mut edges = Vec::with_capacity(half.len() / 2 + 1);
-    let mut is_feature = Vec::with_capacity(half.len() / 2 + 1);
     let mut feature_count = vec![0u32; n];
     // Each edge's group of half-edges, classified in parallel (the dihedral test needs two face
     // normals an edge: most of the work); the few feature edges add their constraint planes after.
@@ -132,15 +130,12 @@ pub fn classify_with_seams(
         })
         .collect();
     let total_len: f64 = classified.par_iter().map(|&(_, l)| l).sum();
-    for (g, (&i, &(feature, _))) in starts.iter().zip(&classified).enumerate() {
-        let j = starts.get(g + 1).copied().unwrap_or(half.len());
+    let edges: Vec<(u32, u32)> = starts.par_iter().map(|&i| (half[i].0, half[i].1)).collect();
+    let is_feature: Vec<bool> = classified.par_iter().map(|&(feature, _)| feature).collect();
+    for g in (0..starts.len()).filter(|&g| is_feature[g]) {
+        let (i, j) = (starts[g], starts.get(g + 1).copied().unwrap_or(half.len()));
         let group = &half[i..j];
-        let (u, v) = (half[i].0, half[i].1);
-        edges.push((u, v));
-        is_feature.push(feature);
-        if !feature {
-            continue;
-        }
+        let (u, v) = edges[g];
         feature_count[u as usize] += 1;
         feature_count[v as usize] += 1;
         let (pu, pv) = (

@@ -50,6 +50,8 @@ pub(super) struct PassView<'a> {
     pub(super) scales: &'a [f32],
     /// The ends of the pairs chosen in the pass.
     pub(super) picked: &'a SlotSet,
+    /// Slots that never merge (see `Builder::locked`): their pairs are never priced.
+    pub(super) locked: Option<&'a SlotSet>,
     pub(super) pricing: Pricing,
 }
 
@@ -230,6 +232,9 @@ impl FinishBatch {
             );
             let mut all = true;
             for n in &around {
+                if view.locked.is_some_and(|l| l.contains(n.slot)) {
+                    continue;
+                }
                 if view.picked.contains(n.slot) {
                     all = false;
                     continue;
@@ -335,10 +340,12 @@ impl Builder<'_> {
             std::mem::take(&mut self.scales),
         );
         let mut new_charts = Vec::new();
+        let locked = self.locked.take();
         let PassMarks { picked, changed } = marks;
         let view = PassView {
             done,
-            leaves: &self.mesh.positions,
+            leaves: self.leaf_positions,
+            locked: locked.as_ref(),
             ends: &ends,
             colors: &colors,
             charts: &charts,
@@ -350,7 +357,7 @@ impl Builder<'_> {
         let mut survivors = Vec::new();
         let backlog = &Backlog::default();
         let early = std::thread::scope(|scope| {
-            let threaded = chosen.len() >= 4 * FINISH_BATCH;
+            let threaded = self.finisher && chosen.len() >= 4 * FINISH_BATCH;
             let batch_len = if threaded { FINISH_BATCH } else { FINISH_HERE };
             let finisher = threaded.then(|| {
                 scope.spawn(move || {
@@ -423,6 +430,7 @@ impl Builder<'_> {
         });
         (self.ends, self.colors) = (ends, colors);
         (self.charts, self.scales) = (charts, scales);
+        self.locked = locked;
         nodes.truncate(first_new + survivors.len());
         self.nodes = nodes;
         let survived = Survived {

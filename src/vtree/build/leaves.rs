@@ -74,6 +74,26 @@ pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>
 
 /// Close non-edge pairs: vertices closer than `distance` and outside each other's 2-ring, at most
 /// `per_vertex` per vertex (`edges`: the mesh's edges).
+/// The close non-edge pairs `options` asks for (`--pair-distance`, a share of `diagonal`, and
+/// `--max-pairs`), none when either is 0.
+pub(super) fn close_pairs_for(
+    positions: &[Vec3],
+    edges: &[(u32, u32)],
+    options: &super::BuildOptions,
+    diagonal: f32,
+) -> Vec<(u32, u32)> {
+    if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
+        close_non_edge_pairs(
+            positions,
+            edges,
+            options.pair_distance * diagonal,
+            options.max_pairs_per_vertex,
+        )
+    } else {
+        Vec::new()
+    }
+}
+
 pub(super) fn close_non_edge_pairs(
     positions: &[Vec3],
     edges: &[(u32, u32)],

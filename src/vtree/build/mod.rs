@@ -24,6 +24,7 @@ mod finisher;
 mod greedy;
 mod leaves;
 mod node;
+pub mod partition;
 mod passes;
 mod pricing;
 mod queue;
@@ -104,6 +105,9 @@ pub struct BuildStats {
     pub depth: u32,
     pub input_triangles: u32,
     pub parts: u32,
+    /// A partitioned build's cells and levels (see [`partition`]); 0 for a whole build.
+    pub cells: u32,
+    pub levels: u32,
     pub feature_edges: u32,
     pub proximity_pairs: u32,
     /// Merges postponed because they would have flipped a triangle.
@@ -154,6 +158,17 @@ const PROGRESS_EVERY: usize = 4096;
 /// The state of a build: the working mesh, per-slot merge data, and the tree so far.
 struct Builder<'m> {
     mesh: &'m Mesh,
+    /// The input's positions, which the error samples name: `mesh`'s own, except in a partitioned
+    /// build, whose levels' meshes are cells of live slots (see [`partition`]).
+    leaf_positions: &'m [Vec3],
+    /// Slots that must not merge (a cell's border in a partitioned build); `None` in a whole build.
+    locked: Option<passes::SlotSet>,
+    /// Whether a pass's nodes may be finished on a second thread (see [`finisher`]); off where
+    /// the caller keeps every core busy already (the cells of a partitioned build).
+    finisher: bool,
+    /// The build stops when this many slots are live (1: the root), or earlier when only pairs
+    /// with a locked end are left.
+    target_live: usize,
     collapser: Collapser,
     /// Each slot's quadric (about its position) and Table 1 weight, as pricing reads them.
     ends: Vec<PairEnd>,
@@ -258,7 +273,7 @@ impl Builder<'_> {
             &nodes,
             &merged,
             &fan,
-            &self.mesh.positions,
+            self.leaf_positions,
             wedges::node_color(self.color_scale, color, principal),
         );
         for c in node.children {
@@ -393,6 +408,44 @@ pub fn build(
     options: &BuildOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<(VertexTree, BuildStats), BuildError> {
+    build_scaled(mesh, progress, &mut |unit, progress| {
+        build_unit(unit, options, progress)
+    })
+}
+
+/// [`build`] in cells of at most `cell_triangles` triangles, built in parallel with their borders
+/// locked and joined level by level (see [`partition`]): one vertex tree all the same. A mesh with
+/// vertex colours, texture coordinates or materials, or one that fits in one cell, is built whole. The
+/// cells build with the passes schedule whatever `options.schedule` says.
+pub fn build_partitioned(
+    mesh: &Mesh,
+    options: &BuildOptions,
+    cell_triangles: usize,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<(VertexTree, BuildStats), BuildError> {
+    build_scaled(mesh, progress, &mut |unit, progress| {
+        if unit.triangles.len() <= cell_triangles
+            || unit.colors.is_some()
+            || unit.uvs.is_some()
+            || unit.material_of.is_some()
+        {
+            build_unit(unit, options, progress)
+        } else {
+            partition::build(unit, options, cell_triangles, progress)
+        }
+    })
+}
+
+/// Runs `build_at_unit` on `mesh`, checked, and scaled to near unit size when it is far from it.
+#[allow(clippy::type_complexity)]
+fn build_scaled(
+    mesh: &Mesh,
+    progress: &mut dyn FnMut(usize, usize),
+    build_at_unit: &mut dyn FnMut(
+        &Mesh,
+        &mut dyn FnMut(usize, usize),
+    ) -> Result<(VertexTree, BuildStats), BuildError>,
+) -> Result<(VertexTree, BuildStats), BuildError> {
     mesh.check().map_err(BuildError::Invalid)?;
     // Quadrics hold fourth powers of lengths in `f32`: far from unit size they underflow (a model
     // 1e-10 across prices every merge at 0) or overflow (1e7 across writes infinite errors). Such a
@@ -408,14 +461,14 @@ pub fn build(
             positions: mesh.positions.iter().map(|&p| p * factor).collect(),
             ..mesh.clone()
         };
-        let (mut tree, stats) = build_unit(&unit, options, progress)?;
+        let (mut tree, stats) = build_at_unit(&unit, progress)?;
         tree.scale_lengths(1.0 / factor);
         return Ok((tree, stats));
     }
     if !diagonal.is_finite() {
         return Err(BuildError::TooLargeCoordinates);
     }
-    build_unit(mesh, options, progress)
+    build_at_unit(mesh, progress)
 }
 
 /// Models whose diagonal lies in this range are built as they are: the quadrics' fourth powers stay
@@ -480,16 +533,7 @@ fn build_geometry(
         feature_edges: feats.is_feature.iter().filter(|&&f| f).count() as u32,
         ..Default::default()
     };
-    let close = if options.pair_distance > 0.0 && options.max_pairs_per_vertex > 0 {
-        leaves::close_non_edge_pairs(
-            &mesh.positions,
-            &feats.edges,
-            options.pair_distance * diagonal,
-            options.max_pairs_per_vertex,
-        )
-    } else {
-        Vec::new()
-    };
+    let close = leaves::close_pairs_for(&mesh.positions, &feats.edges, options, diagonal);
     stats.proximity_pairs = close.len() as u32;
     stats.phases.features = features_secs;
     stats.phases.close_pairs = clock.elapsed().as_secs_f64();
@@ -528,6 +572,10 @@ fn build_geometry(
     vanish_offsets.push(0);
     let mut builder = Builder {
         mesh,
+        leaf_positions: &mesh.positions,
+        locked: None,
+        finisher: true,
+        target_live: 1,
         collapser,
         ends,
         colors,

@@ -66,7 +66,11 @@ impl Builder<'_> {
         };
         let mut last_report = 0;
         let mut chosen: Vec<usize> = Vec::new();
-        while self.collapser.live_count() > 1 {
+        while self.collapser.live_count() > self.target_live {
+            if cands.is_empty() && self.locked.is_some() {
+                // Only pairs with a locked end are left: the cell is done.
+                break;
+            }
             if cands.is_empty() {
                 // Separate parts, each collapsed to a point: pair the survivors.
                 let pairs = self.widen(radius, per_vertex);
@@ -158,9 +162,13 @@ impl Builder<'_> {
             k += 1;
             !priced_early[k - 1]
         });
+        let locked = self.locked.take();
         let fresh = self.price_around(&survivors, |s, other| {
-            picked.contains(other) && !(changed.contains(other) && other < s)
+            picked.contains(other)
+                && !(changed.contains(other) && other < s)
+                && !locked.as_ref().is_some_and(|l| l.contains(other))
         });
+        self.locked = locked;
         cands.extend(fresh);
     }
 }

@@ -165,7 +165,7 @@ impl WedgeState {
             .iter()
             .map(|l| l.first().copied().unwrap_or(NONE))
             .collect();
-        WedgeState {
+        let mut state = WedgeState {
             corners: welded.corners,
             at: mesh.positions.clone(),
             node: welded.leaf,
@@ -193,7 +193,25 @@ impl WedgeState {
             scales,
             first,
             color_scale,
-        }
+        };
+        state.reserve(leaves + leaves / 2);
+        state
+    }
+
+    /// Room for `more` wedges in every per-wedge array: the merges add about 1.3 a node (1.29 on
+    /// the textured dragon), and growing by doubling past the input's count left up to half of
+    /// 1.07 million wedges' arrays (124 bytes of quadric each) unused.
+    fn reserve(&mut self, more: usize) {
+        self.quadric.reserve_exact(more);
+        self.at.reserve_exact(more);
+        self.node.reserve_exact(more);
+        self.parent.reserve_exact(more);
+        self.rep.reserve_exact(more);
+        self.texture.reserve_exact(more);
+        self.material.reserve_exact(more);
+        self.uv.reserve_exact(more);
+        self.color.reserve_exact(more);
+        self.normal.reserve_exact(more);
     }
 
     /// The principal wedge's quadric of each slot, as pricing reads it.

@@ -1,0 +1,773 @@
+//! The partitioned build: the input split into cells, each cell built on its own (in parallel)
+//! with its border locked, and the cells' remains joined level by level up a kd-tree until one
+//! root is left. The result is an ordinary vertex tree.
+//!
+//! This is the level-by-level scheme of Cignoni et al., *Batched multi triangulation* (IEEE
+//! Visualization 2005) and Ponchio's Nexus, carried to a binary vertex tree:
+//!
+//! 1. The triangles are split at the median of their centroids along the longest axis, again and
+//!    again, until every cell holds at most `cell_triangles`: a kd-tree whose leaves are the cells.
+//! 2. Each leaf cell is built like a whole mesh, except that a vertex with a triangle in another
+//!    cell is *locked* (no merge moves it), and the cell stops when half of its free vertices are
+//!    left. What is left (its live vertices, with their quadrics, error samples and current nodes,
+//!    and its live triangles) is the cell's *remains*.
+//! 3. A kd-tree node joins its two children's remains (they share only locked border vertices),
+//!    unlocks the border between them (the vertices all of whose triangles are now inside), and
+//!    builds on, again to half. The root builds to one vertex, joining separate parts as the whole
+//!    build does.
+//!
+//! The two halves of every kd-tree node build at once (`rayon::join`), so the build uses every
+//! core. Each vertex's quadric, Table 1 weight and leaf node are the whole mesh's (computed before
+//! the split), so a border vertex prices the same as in a whole build once it is unlocked.
+//!
+//! The nodes are numbered at the end: level by level (a kd-tree node's after all of its
+//! descendants'), and within a level the cells' nodes interleaved by error, each cell's in the order
+//! it made them. Every triangle's merges lie in the cells on the path from its leaf cell to the
+//! root, whose order this keeps, so each triangle vanishes at the same node as in the cells' own
+//! order; and [`crate::vtree::extract::cut_at_triangles`] (build order) takes the levels' cheapest
+//! merges first, as a whole build's passes do.
+
+use super::node::{SAMPLES, Samples};
+use super::passes::SlotSet;
+use super::{BuildError, BuildOptions, BuildStats, Builder, NONE, PartInfo, VertexTree, leaves};
+use crate::mesh::Mesh;
+use crate::simplify::collapse::Collapser;
+use crate::simplify::features;
+use crate::simplify::metric::PairEnd;
+use crate::vtree::Node;
+use glam::Vec3;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap as HashMap;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// A node as the cells name it before the tree is numbered: a leaf (an input vertex), or the
+/// `k`-th node made in cell `cell`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Ref(u64);
+
+impl Ref {
+    const LEAF: u64 = u32::MAX as u64;
+
+    fn leaf(v: u32) -> Ref {
+        Ref((Ref::LEAF << 32) | u64::from(v))
+    }
+
+    fn made(cell: u32, k: u32) -> Ref {
+        Ref((u64::from(cell) << 32) | u64::from(k))
+    }
+
+    fn as_leaf(self) -> Option<u32> {
+        (self.0 >> 32 == Ref::LEAF).then_some(self.0 as u32)
+    }
+
+    fn cell_and_index(self) -> (u32, u32) {
+        ((self.0 >> 32) as u32, self.0 as u32)
+    }
+}
+
+/// A live vertex between levels: what the builder knows of it.
+#[derive(Clone, Copy)]
+struct Live {
+    node: Ref,
+    /// Its node's data (its position among them), as a parent's node reads it.
+    current: Node,
+    end: PairEnd,
+    mass: f32,
+    samples: Samples,
+}
+
+/// What a cell hands its parent.
+#[derive(Default)]
+struct Remains {
+    slots: Vec<Live>,
+    /// Live triangles: the input triangle, and its corners as indices into `slots`.
+    triangles: Vec<(u32, [u32; 3])>,
+    /// Partners by loose edges (left by vanished triangles) and close pairs, as indices into `slots`.
+    pairs: Vec<(u32, u32)>,
+}
+
+/// The nodes one cell made, in the order it made them.
+struct Made {
+    cell: u32,
+    height: u32,
+    nodes: Vec<Node>,
+    children: Vec<[Ref; 2]>,
+    /// Input triangles vanishing at each node: `vanished[offsets[k]..offsets[k + 1]]`.
+    vanished: Vec<u32>,
+    offsets: Vec<u32>,
+}
+
+/// A kd-tree node: its triangles (a range of [`Split::order`]), its leaf cells, its children.
+struct KdNode {
+    triangles: Range<usize>,
+    cells: Range<u32>,
+    children: Option<[u32; 2]>,
+    /// 0 for a cell; one more than the higher child otherwise.
+    height: u32,
+}
+
+/// The kd-tree over the triangles' centroids.
+struct Split {
+    /// Triangle indices, each cell's a contiguous run.
+    order: Vec<u32>,
+    nodes: Vec<KdNode>,
+    root: u32,
+}
+
+impl Split {
+    fn new(mesh: &Mesh, cell_triangles: usize) -> Split {
+        let centroids: Vec<Vec3> = mesh
+            .triangles
+            .par_iter()
+            .map(|t| t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0)
+            .collect();
+        let mut order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+        let mut nodes = Vec::new();
+        let mut next_cell = 0;
+        let root = split(
+            &mut order,
+            0,
+            &centroids,
+            cell_triangles.max(1),
+            &mut nodes,
+            &mut next_cell,
+        );
+        Split { order, nodes, root }
+    }
+
+    /// The deepest kd-tree node whose cells include `cells`.
+    fn holding(&self, cells: Range<u32>) -> u32 {
+        let mut at = self.root;
+        'down: loop {
+            if let Some(children) = self.nodes[at as usize].children {
+                for c in children {
+                    let span = &self.nodes[c as usize].cells;
+                    if span.start <= cells.start && cells.end <= span.end {
+                        at = c;
+                        continue 'down;
+                    }
+                }
+            }
+            return at;
+        }
+    }
+}
+
+/// Splits `order` (the triangles at `start..` of the whole order) at the median centroid along
+/// the longest axis of their centroids' box until each part holds at most `cell` triangles.
+/// Returns the new kd-tree node's index.
+fn split(
+    order: &mut [u32],
+    start: usize,
+    centroids: &[Vec3],
+    cell: usize,
+    nodes: &mut Vec<KdNode>,
+    next_cell: &mut u32,
+) -> u32 {
+    let len = order.len();
+    if len <= cell {
+        *next_cell += 1;
+        nodes.push(KdNode {
+            triangles: start..start + len,
+            cells: *next_cell - 1..*next_cell,
+            children: None,
+            height: 0,
+        });
+        return nodes.len() as u32 - 1;
+    }
+    let (lo, hi) = order.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), &t| (lo.min(centroids[t as usize]), hi.max(centroids[t as usize])),
+    );
+    let extent = hi - lo;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = len / 2;
+    order.select_nth_unstable_by(mid, |&a, &b| {
+        centroids[a as usize][axis]
+            .total_cmp(&centroids[b as usize][axis])
+            .then(a.cmp(&b))
+    });
+    let (left, right) = order.split_at_mut(mid);
+    let l = split(left, start, centroids, cell, nodes, next_cell);
+    let r = split(right, start + mid, centroids, cell, nodes, next_cell);
+    let (lc, rc) = (&nodes[l as usize], &nodes[r as usize]);
+    let node = KdNode {
+        triangles: start..start + len,
+        cells: lc.cells.start..rc.cells.end,
+        children: Some([l, r]),
+        height: 1 + lc.height.max(rc.height),
+    };
+    nodes.push(node);
+    nodes.len() as u32 - 1
+}
+
+/// What every cell reads: the whole mesh's per-vertex data.
+struct Shared<'m> {
+    mesh: &'m Mesh,
+    options: &'m BuildOptions,
+    split: Split,
+    /// Each vertex's lowest and highest cell (of the triangles around it).
+    cell_range: Vec<(u32, u32)>,
+    leaf_nodes: Vec<Node>,
+    mass: Vec<f32>,
+    ends: Vec<PairEnd>,
+    /// Close non-edge pairs, by the kd-tree node that holds both ends' triangles.
+    close: Vec<Vec<(u32, u32)>>,
+    mean_edge_length: f32,
+    radius: f32,
+    merges: AtomicUsize,
+}
+
+/// [`super::build`] of a mesh near unit size in cells of at most `cell_triangles` triangles.
+pub(super) fn build(
+    mesh: &Mesh,
+    options: &BuildOptions,
+    cell_triangles: usize,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<(VertexTree, BuildStats), BuildError> {
+    let start = Instant::now();
+    if mesh.triangles.is_empty() {
+        return Err(BuildError::Empty);
+    }
+    let n = mesh.positions.len();
+    if n >= super::queue::SLOT as usize {
+        return Err(BuildError::TooLarge(n));
+    }
+    let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
+    let clock = Instant::now();
+    let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+    let features_secs = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let close = leaves::close_pairs_for(&mesh.positions, &feats.edges, options, diagonal);
+    let close_secs = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let (leaf_nodes, mass) = leaves::leaves(
+        mesh,
+        &Collapser::new(mesh.positions.clone(), &mesh.triangles),
+    );
+    let ends: Vec<PairEnd> = feats
+        .quadrics
+        .par_iter()
+        .zip(&feats.vertex_weight)
+        .zip(&mesh.positions)
+        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
+        .collect();
+    let split = Split::new(mesh, cell_triangles);
+    let mut cell_range = vec![(u32::MAX, 0u32); n];
+    for node in split.nodes.iter().filter(|k| k.children.is_none()) {
+        for &t in &split.order[node.triangles.clone()] {
+            for v in mesh.triangles[t as usize] {
+                let r = &mut cell_range[v as usize];
+                *r = (r.0.min(node.cells.start), r.1.max(node.cells.start));
+            }
+        }
+    }
+    let mut by_node = vec![Vec::new(); split.nodes.len()];
+    for &(a, b) in &close {
+        let (ra, rb) = (cell_range[a as usize], cell_range[b as usize]);
+        by_node[split.holding(ra.0.min(rb.0)..ra.1.max(rb.1) + 1) as usize].push((a, b));
+    }
+    let proximity_pairs = close.len() as u32;
+    drop(close);
+    let shared = Shared {
+        mesh,
+        options,
+        split,
+        cell_range,
+        leaf_nodes,
+        mass,
+        ends,
+        close: by_node,
+        mean_edge_length: feats.mean_edge_length,
+        radius: options.pair_distance.max(1e-3) * diagonal,
+        merges: AtomicUsize::new(0),
+    };
+    let feature_edges = feats.is_feature.iter().filter(|&&f| f).count() as u32;
+    drop(feats);
+    let leaves_secs = clock.elapsed().as_secs_f64();
+
+    // Every cell, the halves of each kd-tree node at once; progress from this thread meanwhile.
+    let (remains, made, cell_stats) = std::thread::scope(|scope| {
+        let work = scope.spawn(|| shared.solve(shared.split.root));
+        while !work.is_finished() {
+            progress(shared.merges.load(Ordering::Relaxed), n - 1);
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        work.join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    });
+    debug_assert_eq!(remains.slots.len(), 1);
+    progress(n - 1, n - 1);
+    let mut stats = cell_stats;
+    stats.leaves = n as u32;
+    stats.input_triangles = mesh.triangles.len() as u32;
+    stats.parts = mesh.parts.len() as u32;
+    stats.cells = shared
+        .split
+        .nodes
+        .iter()
+        .filter(|k| k.children.is_none())
+        .count() as u32;
+    stats.levels = shared.split.nodes[shared.split.root as usize].height + 1;
+    stats.feature_edges = feature_edges;
+    stats.proximity_pairs = proximity_pairs;
+    stats.phases.features = features_secs;
+    stats.phases.close_pairs = close_secs;
+    stats.phases.leaves = leaves_secs;
+    let tree = shared.number(made);
+    stats.nodes = tree.nodes.len() as u32;
+    stats.depth = tree.depth();
+    stats.seconds = start.elapsed().as_secs_f64();
+    Ok((tree, stats))
+}
+
+impl Shared<'_> {
+    /// Builds kd-tree node `at`: its cells, then its own level. Returns its remains, the nodes made
+    /// under it, and what the builds did.
+    fn solve(&self, at: u32) -> (Remains, Vec<Made>, BuildStats) {
+        let kd = &self.split.nodes[at as usize];
+        let (input, mut made, mut stats) = match kd.children {
+            None => (self.cell(kd), Vec::new(), BuildStats::default()),
+            Some([l, r]) => {
+                let ((left, mut made, mut stats), (right, more, other)) =
+                    rayon::join(|| self.solve(l), || self.solve(r));
+                made.extend(more);
+                add_stats(&mut stats, &other);
+                (join(left, right), made, stats)
+            }
+        };
+        let mut input = input;
+        if at == self.split.root {
+            // Vertices of no triangle are in no cell: the root joins them in.
+            input.slots.extend(
+                (0..self.mesh.positions.len() as u32)
+                    .filter(|&v| self.cell_range[v as usize].0 == u32::MAX)
+                    .map(|v| self.leaf_live(v)),
+            );
+        }
+        let (remains, nodes, level) = self.level(at, input);
+        made.push(nodes);
+        add_stats(&mut stats, &level);
+        (remains, made, stats)
+    }
+
+    /// A leaf cell's input: its triangles over its vertices, each a leaf.
+    fn cell(&self, kd: &KdNode) -> Remains {
+        let triangles = &self.split.order[kd.triangles.clone()];
+        let mut vertices: Vec<u32> = triangles
+            .iter()
+            .flat_map(|&t| self.mesh.triangles[t as usize])
+            .collect();
+        vertices.par_sort_unstable();
+        vertices.dedup();
+        let index = |v: u32| vertices.binary_search(&v).unwrap_or(0) as u32;
+        Remains {
+            triangles: triangles
+                .iter()
+                .map(|&t| (t, self.mesh.triangles[t as usize].map(index)))
+                .collect(),
+            slots: vertices.iter().map(|&v| self.leaf_live(v)).collect(),
+            pairs: Vec::new(),
+        }
+    }
+
+    /// Input vertex `v` as a live vertex that has not merged yet.
+    fn leaf_live(&self, v: u32) -> Live {
+        let mut samples = [NONE; SAMPLES];
+        samples[0] = v;
+        Live {
+            node: Ref::leaf(v),
+            current: self.leaf_nodes[v as usize],
+            end: self.ends[v as usize],
+            mass: self.mass[v as usize],
+            samples,
+        }
+    }
+
+    /// Builds kd-tree node `at`'s level on `input`: its border (vertices with triangles outside
+    /// it) locked, to half of its free vertices, or to one vertex at the root.
+    fn level(&self, at: u32, input: Remains) -> (Remains, Made, BuildStats) {
+        let kd = &self.split.nodes[at as usize];
+        let is_root = at == self.split.root;
+        let n = input.slots.len();
+        let locked: Vec<bool> = input
+            .slots
+            .iter()
+            .map(|s| {
+                !is_root
+                    && s.node.as_leaf().is_some_and(|v| {
+                        let (lo, hi) = self.cell_range[v as usize];
+                        lo < kd.cells.start || hi >= kd.cells.end
+                    })
+            })
+            .collect();
+        let free = locked.iter().filter(|&&l| !l).count();
+        let target = if is_root { 1 } else { n - free / 2 };
+        let corners: Vec<[u32; 3]> = input.triangles.iter().map(|t| t.1).collect();
+        let edges = free_edges(n, &corners, &locked);
+        let others = self.other_pairs(at, &input, &locked, &edges);
+
+        let positions: Vec<Vec3> = input.slots.iter().map(|s| s.current.position()).collect();
+        let mesh = Mesh::from_triangles(positions.clone(), corners);
+        let mut collapser = Collapser::new(positions, &mesh.triangles);
+        for &(a, b) in &others {
+            collapser.add_proximity_pair(a, b);
+        }
+        let mut set = SlotSet::new(n);
+        for (i, _) in locked.iter().enumerate().filter(|(_, l)| **l) {
+            set.insert(i as u32);
+        }
+        let slots = &input.slots;
+        let mut nodes = Vec::with_capacity(2 * n);
+        nodes.extend(slots.iter().map(|s| s.current));
+        let mut builder = Builder {
+            mesh: &mesh,
+            leaf_positions: &self.mesh.positions,
+            locked: (!is_root).then_some(set),
+            finisher: false,
+            target_live: target,
+            collapser,
+            ends: slots.iter().map(|s| s.end).collect(),
+            colors: Vec::new(),
+            mass: slots.iter().map(|s| s.mass).collect(),
+            node_of: (0..n as u32).collect(),
+            nodes,
+            vanished: Vec::new(),
+            vanish_offsets: vec![0],
+            metric: self.options.metric,
+            hybrid: self.options.hybrid,
+            mean_edge_length: self.mean_edge_length,
+            color_scale: 0.0,
+            stats: BuildStats::default(),
+            removed: Vec::new(),
+            samples: slots.iter().map(|s| s.samples).collect(),
+            wedges: None,
+            charts: Vec::new(),
+            scales: Vec::new(),
+        };
+        let mut initial = builder.price_pairs(&edges, true);
+        drop(edges);
+        initial.extend(builder.price_pairs(&others, false));
+        let mut radius = self.radius;
+        builder.run_passes(
+            initial,
+            &mut radius,
+            self.options.max_pairs_per_vertex,
+            &mut |_, _| {},
+        );
+        self.merges
+            .fetch_add(builder.nodes.len() - n, Ordering::Relaxed);
+        let stats = builder.stats.clone();
+        let (remains, made) = after_level(at, kd.height, &input, builder);
+        (remains, made, stats)
+    }
+
+    /// The close pairs held at `at` whose ends are both still leaves, and the partners the
+    /// remains carry, between free slots and not edges (`edges` sorted).
+    fn other_pairs(
+        &self,
+        at: u32,
+        input: &Remains,
+        locked: &[bool],
+        edges: &[(u32, u32)],
+    ) -> Vec<(u32, u32)> {
+        let close = &self.close[at as usize];
+        let leaf_slot: HashMap<u32, u32> = if close.is_empty() {
+            HashMap::default()
+        } else {
+            input
+                .slots
+                .iter()
+                .enumerate()
+                .filter_map(|(i, s)| s.node.as_leaf().map(|v| (v, i as u32)))
+                .collect()
+        };
+        let mut others: Vec<(u32, u32)> = close
+            .iter()
+            .filter_map(|&(a, b)| Some((*leaf_slot.get(&a)?, *leaf_slot.get(&b)?)))
+            .chain(input.pairs.iter().copied())
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .filter(|&(a, b)| a != b && !locked[a as usize] && !locked[b as usize])
+            .filter(|p| edges.binary_search(p).is_err())
+            .collect();
+        others.sort_unstable();
+        others.dedup();
+        others
+    }
+
+    /// The tree: the leaves, then the cells' nodes level by level, each level's interleaved by
+    /// error (each cell's in the order it made them).
+    fn number(&self, made: Vec<Made>) -> VertexTree {
+        let leaf_count = self.mesh.positions.len() as u32;
+        let order = build_order(&made);
+        // Each cell's nodes' numbers.
+        let mut number: HashMap<u32, Vec<u32>> = made
+            .iter()
+            .map(|m| (m.cell, vec![NONE; m.nodes.len()]))
+            .collect();
+        for (j, &(i, k)) in order.iter().enumerate() {
+            let cell = made[i as usize].cell;
+            if let Some(list) = number.get_mut(&cell) {
+                list[k as usize] = leaf_count + j as u32;
+            }
+        }
+        let resolve = |r: Ref| match r.as_leaf() {
+            Some(v) => v,
+            None => {
+                let (cell, k) = r.cell_and_index();
+                number.get(&cell).map_or(NONE, |l| l[k as usize])
+            }
+        };
+        let mut nodes = self.leaf_nodes.clone();
+        nodes.reserve(order.len());
+        let mut triangles = Vec::with_capacity(self.mesh.triangles.len());
+        let mut vanish_offsets = Vec::with_capacity(order.len() + 1);
+        vanish_offsets.push(0);
+        for &(i, k) in &order {
+            let m = &made[i as usize];
+            let k = k as usize;
+            let mut node = m.nodes[k];
+            node.children = m.children[k].map(resolve);
+            node.parent = NONE;
+            let u = nodes.len() as u32;
+            for c in node.children {
+                nodes[c as usize].parent = u;
+            }
+            nodes.push(node);
+            let gone = &m.vanished[m.offsets[k] as usize..m.offsets[k + 1] as usize];
+            triangles.extend(gone.iter().map(|&f| self.mesh.triangles[f as usize]));
+            vanish_offsets.push(triangles.len() as u32);
+        }
+        VertexTree {
+            leaf_count,
+            nodes,
+            triangles,
+            vanish_offsets,
+            metric: self.options.metric,
+            has_colors: self.mesh.colors.is_some(),
+            has_normals: self.mesh.normals.is_some(),
+            one_sided: self.mesh.one_sided,
+            appearance: None,
+            materials: None,
+            wedges: None,
+            parts: self
+                .mesh
+                .parts
+                .iter()
+                .map(|p| PartInfo {
+                    name: p.name.clone(),
+                    triangles: p.triangles.end - p.triangles.start,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The edges of `corners` (over `n` slots) between free slots, each once, sorted: grouped by
+/// their lower end in one counting pass, so a level costs time linear in its triangles.
+fn free_edges(n: usize, corners: &[[u32; 3]], locked: &[bool]) -> Vec<(u32, u32)> {
+    let each = || {
+        corners
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .filter(|&(a, b)| !locked[a as usize] && !locked[b as usize])
+    };
+    let mut start = vec![0u32; n + 1];
+    for (a, _) in each() {
+        start[a as usize + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut higher = vec![0u32; start[n] as usize];
+    for (a, b) in each() {
+        higher[fill[a as usize] as usize] = b;
+        fill[a as usize] += 1;
+    }
+    let mut edges = Vec::with_capacity(higher.len() / 2 + 1);
+    for a in 0..n {
+        let list = &mut higher[start[a] as usize..start[a + 1] as usize];
+        list.sort_unstable();
+        let mut last = None;
+        for &b in list.iter() {
+            if last != Some(b) {
+                edges.push((a as u32, b));
+                last = Some(b);
+            }
+        }
+    }
+    edges
+}
+
+/// What a level leaves: its live slots (renumbered densely), live triangles and partners as the
+/// parent's remains, and the nodes it made, named as [`Ref`]s.
+fn after_level(at: u32, height: u32, input: &Remains, builder: Builder<'_>) -> (Remains, Made) {
+    let Builder {
+        nodes,
+        node_of,
+        collapser,
+        ends,
+        mass,
+        samples,
+        vanished,
+        vanish_offsets,
+        ..
+    } = builder;
+    let slots = &input.slots;
+    let n = slots.len();
+    let mut nodes = nodes;
+    let made_nodes = nodes.split_off(n);
+    let name = |u: u32| {
+        if (u as usize) < n {
+            slots[u as usize].node
+        } else {
+            Ref::made(at, u - n as u32)
+        }
+    };
+    let live: Vec<u32> = collapser.live_slots().collect();
+    let mut index = vec![NONE; n];
+    for (i, &s) in live.iter().enumerate() {
+        index[s as usize] = i as u32;
+    }
+    let mut pairs = Vec::new();
+    for &s in &live {
+        for partner in collapser.extra_neighbors(s) {
+            let p = index[partner.slot as usize];
+            if p != NONE && index[s as usize] < p {
+                pairs.push((index[s as usize], p));
+            }
+        }
+    }
+    let remains = Remains {
+        slots: live
+            .iter()
+            .map(|&s| {
+                let (u, si) = (node_of[s as usize], s as usize);
+                Live {
+                    node: name(u),
+                    current: if (u as usize) < n {
+                        slots[u as usize].current
+                    } else {
+                        made_nodes[u as usize - n]
+                    },
+                    end: ends[si],
+                    mass: mass[si],
+                    samples: samples[si],
+                }
+            })
+            .collect(),
+        triangles: collapser
+            .live_faces()
+            .map(|(f, c)| (input.triangles[f as usize].0, c.map(|s| index[s as usize])))
+            .collect(),
+        pairs,
+    };
+    let made = Made {
+        cell: at,
+        height,
+        children: made_nodes.iter().map(|m| m.children.map(name)).collect(),
+        nodes: made_nodes,
+        vanished: vanished
+            .iter()
+            .map(|&f| input.triangles[f as usize].0)
+            .collect(),
+        offsets: vanish_offsets,
+    };
+    (remains, made)
+}
+
+/// The order in which the tree numbers the cells' nodes, as (index into `made`, k): level by
+/// level (a kd-tree node's after all of its descendants'), and within a level the cells' nodes
+/// interleaved by error, each cell's in the order it made them.
+///
+/// Every triangle's merges lie in the cells on the path from its leaf cell to the root, whose
+/// order this keeps, so each cut of this order is a cut the cells themselves passed through, side
+/// by side. (A freer order, cheapest first among the nodes whose children are numbered, was
+/// tried: it lets a higher level's merge come before a lower one's that it was priced after, and
+/// some cuts then hold a triangle twice.)
+fn build_order(made: &[Made]) -> Vec<(u32, u32)> {
+    let mut by_level: Vec<u32> = (0..made.len() as u32).collect();
+    by_level.sort_by_key(|&i| (made[i as usize].height, made[i as usize].cell));
+    let mut order = Vec::with_capacity(made.iter().map(|m| m.nodes.len()).sum());
+    for level in by_level.chunk_by(|&a, &b| made[a as usize].height == made[b as usize].height) {
+        let key =
+            |i: u32, k: u32| Reverse((made[i as usize].nodes[k as usize].error.to_bits(), i, k));
+        let mut heads: BinaryHeap<_> = level
+            .iter()
+            .filter(|&&i| !made[i as usize].nodes.is_empty())
+            .map(|&i| key(i, 0))
+            .collect();
+        while let Some(Reverse((_, i, k))) = heads.pop() {
+            order.push((i, k));
+            if (k as usize + 1) < made[i as usize].nodes.len() {
+                heads.push(key(i, k + 1));
+            }
+        }
+    }
+    order
+}
+
+/// Two sibling cells' remains as one: their slots (the border vertices they share once), their
+/// triangles and partners.
+fn join(left: Remains, right: Remains) -> Remains {
+    let Remains {
+        mut slots,
+        mut triangles,
+        mut pairs,
+    } = left;
+    let shared: HashMap<u32, u32> = slots
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| s.node.as_leaf().map(|v| (v, i as u32)))
+        .collect();
+    let map: Vec<u32> = right
+        .slots
+        .iter()
+        .map(|s| match s.node.as_leaf().and_then(|v| shared.get(&v)) {
+            Some(&i) => i,
+            None => {
+                slots.push(*s);
+                slots.len() as u32 - 1
+            }
+        })
+        .collect();
+    triangles.extend(
+        right
+            .triangles
+            .into_iter()
+            .map(|(f, c)| (f, c.map(|s| map[s as usize]))),
+    );
+    pairs.extend(
+        right
+            .pairs
+            .into_iter()
+            .map(|(a, b)| (map[a as usize], map[b as usize])),
+    );
+    Remains {
+        slots,
+        triangles,
+        pairs,
+    }
+}
+
+fn add_stats(to: &mut BuildStats, from: &BuildStats) {
+    to.flip_deferrals += from.flip_deferrals;
+    to.widenings += from.widenings;
+    to.rounds += from.rounds;
+    to.pricings += from.pricings;
+    to.phases.pricing += from.phases.pricing;
+    to.phases.merging += from.phases.merging;
+    to.phases.repricing += from.phases.repricing;
+}
