@@ -5,7 +5,7 @@
 #
 # Installs what the suite needs when it is missing (Mesa lavapipe, the software Vulkan driver the GPU
 # tests render with; Xvfb and the X libraries winit loads, for the viewer's test; node and the
-# Khronos glTF Validator, into tools/npm; cargo-fuzz), then
+# Khronos glTF Validator, into tools/npm; Ray from PyPI, into tools/venv; cargo-fuzz), then
 # checks formatting and lints, runs every test, and fuzzes each input reader briefly. Set
 # VUNIFY_MODELS to a folder of the real test models (the README lists them) to include the tests on
 # them; CI does. FUZZ_SECONDS (default 30) sets the fuzzing time per reader; 0 skips it.
@@ -23,6 +23,16 @@ fi
 if [ ! -d tools/npm/node_modules/gltfpack ]; then
   npm install --prefix tools/npm --no-audit --no-fund --loglevel=error gltfpack@1.3.0
 fi
+
+# Ray (PyPI), which the distributed build's driver (scripts/ray_build.py) runs on; its test starts
+# a local Ray instance. In a virtual environment, so the system's Python stays as it is.
+command -v python3 >/dev/null || ensure_packages python3
+python3 -c "import venv, ensurepip" 2>/dev/null || ensure_packages python3-venv
+if ! tools/venv/bin/python -c "import ray" 2>/dev/null; then
+  python3 -m venv tools/venv
+  tools/venv/bin/pip install --quiet --disable-pip-version-check "ray==2.*"
+fi
+export VUNIFY_PYTHON="$PWD/tools/venv/bin/python"
 
 if [ -n "${VUNIFY_MODELS:-}" ]; then
   echo "scripts/test.sh: real models from VUNIFY_MODELS=$VUNIFY_MODELS"

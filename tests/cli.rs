@@ -1,5 +1,8 @@
 //! The `vunify` command line, run as a user would.
 
+mod common;
+
+use common::ok;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -14,16 +17,6 @@ fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("vunify-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "stdout: {}\nstderr: {}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
 }
 
 /// `vunify measure ORIGINAL SIMPLIFIED --json`: the symmetric maximum, as a fraction of the diagonal.

@@ -54,6 +54,13 @@ pub struct BuildArgs {
     /// materials, and meshes of at most N triangles, are built whole. Default: the whole mesh at once.
     #[arg(long, value_name = "N")]
     cell_triangles: Option<usize>,
+    /// With --cell-triangles: do not build, but write the plan of a build in separate steps to
+    /// the folder DIR (shared by every machine that runs a step): then `vunify cell DIR --index I`
+    /// for each cell I (any order, anywhere; a batch system's array index works too), then
+    /// `vunify join DIR -o OUT.vtree`, whose tree is byte for byte this command's without --plan
+    /// (docs/DISTRIBUTED.md).
+    #[arg(long, value_name = "DIR", requires = "cell_triangles")]
+    plan: Option<PathBuf>,
     /// Keep vertices with identical positions apart (welding is on by default).
     #[arg(long)]
     no_weld: bool,
@@ -112,14 +119,25 @@ pub fn run(args: BuildArgs) -> Result<()> {
     if args.cell_triangles.is_some() && options.schedule == Schedule::Greedy {
         bail!("--cell-triangles builds with the passes schedule; drop --schedule greedy");
     }
-    build_and_write(
-        &args.input,
-        &output,
-        &options,
-        &clean,
-        args.cell_triangles,
-        args.json,
-    )
+    let how = match (args.cell_triangles, &args.plan) {
+        (Some(cells), Some(dir)) => {
+            return super::cells::plan(&args.input, &options, &clean, cells, dir, args.json);
+        }
+        (Some(cells), None) => How::Cells(cells),
+        (None, _) => How::Whole,
+    };
+    build_and_write(&args.input, &output, &options, &clean, how, args.json)
+}
+
+/// How `build_and_write` builds the tree.
+#[derive(Clone, Copy)]
+pub enum How<'a> {
+    /// The whole mesh at once.
+    Whole,
+    /// In cells of at most this many triangles.
+    Cells(usize),
+    /// From the cell outputs of a plan in this folder, made with this cell size.
+    Join(&'a Path, usize),
 }
 
 /// The input's file name with its mesh extension (and any `.xz`) replaced by `.vtree`.
@@ -140,7 +158,7 @@ pub fn build_and_write(
     output: &Path,
     options: &BuildOptions,
     clean: &CleanOptions,
-    cell_triangles: Option<usize>,
+    how: How,
     json: bool,
 ) -> Result<()> {
     let t0 = Instant::now();
@@ -155,9 +173,19 @@ pub fn build_and_write(
     );
     bar.set_message("building");
     let mut progress = |done: usize, _| bar.set_position(done as u64);
-    let (tree, stats) = match cell_triangles {
-        Some(cells) => vtree::build_partitioned(&mesh, options, cells, &mut progress)?,
-        None => vtree::build(&mesh, options, &mut progress)?,
+    let (tree, stats, cell_triangles) = match how {
+        How::Whole => {
+            let (tree, stats) = vtree::build(&mesh, options, &mut progress)?;
+            (tree, stats, 0)
+        }
+        How::Cells(cells) => {
+            let (tree, stats) = vtree::build_partitioned(&mesh, options, cells, &mut progress)?;
+            (tree, stats, cells)
+        }
+        How::Join(dir, cells) => {
+            let (tree, stats) = vtree::cells::join(&mesh, options, cells, dir, &mut progress)?;
+            (tree, stats, cells)
+        }
     };
     bar.finish_and_clear();
     vtree::write(&tree, output).with_context(|| format!("cannot write {}", output.display()))?;
@@ -199,9 +227,7 @@ pub fn build_and_write(
     if stats.cells > 0 {
         println!(
             "cells      {} of at most {} triangles, {} levels",
-            stats.cells,
-            cell_triangles.unwrap_or(0),
-            stats.levels
+            stats.cells, cell_triangles, stats.levels
         );
     }
     println!(

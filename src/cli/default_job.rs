@@ -39,7 +39,7 @@ pub fn run() -> Result<()> {
         &tree_file,
         &BuildOptions::default(),
         &CleanOptions::default(),
-        None,
+        super::build::How::Whole,
         false,
     )?;
     if super::has_display() {

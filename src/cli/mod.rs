@@ -3,6 +3,7 @@
 //! the application edge, they become `anyhow` messages for the user.
 
 mod build;
+mod cells;
 mod default_job;
 mod extract;
 mod info;
@@ -40,6 +41,12 @@ pub struct Cli {
 enum Command {
     /// Build the vertex tree of a mesh (.obj, .ply, .off, optionally .xz; .gltf, .glb) and write it as .vtree.
     Build(build::BuildArgs),
+    /// Build one cell of a build planned with `vunify build --cell-triangles N --plan DIR`: reads
+    /// DIR/cell-I.in, writes DIR/cell-I.out (docs/DISTRIBUTED.md).
+    Cell(cells::CellArgs),
+    /// Finish a planned build once its cells are built: the levels above the cells, written as
+    /// one .vtree, byte for byte the one-process build's.
+    Join(cells::JoinArgs),
     /// Print what a .vtree file holds.
     Info(info::InfoArgs),
     /// Take a static level of detail from a .vtree and write it as OBJ, PLY, OFF or glTF (textures and materials kept).
@@ -72,6 +79,8 @@ pub fn run() -> Result<()> {
     match Cli::parse().command {
         None => default_job::run(),
         Some(Command::Build(args)) => build::run(args),
+        Some(Command::Cell(args)) => cells::run_cell(args),
+        Some(Command::Join(args)) => cells::run_join(args),
         Some(Command::Info(args)) => info::run(args),
         Some(Command::Extract(args)) => extract::run(args),
         Some(Command::Path(args)) => path::run(args),

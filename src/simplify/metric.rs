@@ -66,7 +66,7 @@ const TIE_BREAK: f64 = 1e-5;
 const TIE_BREAK_AREA: f64 = 0.02;
 
 /// Hybrid-metric weights (Tao et al.'s eq. 2).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HybridWeights {
     /// w1, on the squared distance in units of the input's mean edge length.
     pub distance: f32,

@@ -158,7 +158,8 @@ impl Quadric {
 /// reads of a vertex fits one cache line ([`crate::simplify::metric::PairEnd`]). About the vertex, the
 /// linear and constant parts are as small as the vertex's distances to its planes, so `f32` keeps their
 /// relative precision; about the world's origin they would be large terms that cancel.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct LocalQuadric {
     a: [f32; 6],
     b: [f32; 3],

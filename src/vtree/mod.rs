@@ -15,7 +15,7 @@ mod check;
 mod extract;
 mod format;
 
-pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build, build_partitioned};
+pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build, build_partitioned, cells};
 pub use check::{TreeProblem, check, check_cut};
 pub use extract::{Cut, cut_at_bound, cut_at_error, cut_at_merges, cut_at_triangles};
 pub use format::{

@@ -148,3 +148,14 @@ pub fn subdivided(mesh: &Mesh, levels: u32) -> Mesh {
     }
     m
 }
+
+/// A command's stdout, asserting that it succeeded (both streams shown when it did not).
+pub fn ok(out: &std::process::Output) -> String {
+    assert!(
+        out.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout.clone()).unwrap()
+}

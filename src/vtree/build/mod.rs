@@ -20,6 +20,7 @@
 //! [`finisher`] (a pass's nodes completed on a second thread), [`node`] (a node's attributes, bounds
 //! and error), [`queue`] (the candidates as the schedules hold them).
 
+pub mod cells;
 mod finisher;
 mod greedy;
 mod leaves;
@@ -45,7 +46,7 @@ use rayon::prelude::*;
 use std::time::Instant;
 
 /// How merges are ordered.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Schedule {
     /// Passes of non-overlapping cheapest merges (meshoptimizer's scheme).
@@ -56,7 +57,7 @@ pub enum Schedule {
 }
 
 /// Builder settings; `Default` gives the documented defaults.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BuildOptions {
     /// How merges are priced and placed. Default: `Qem`.
     pub metric: Metric,
@@ -150,6 +151,12 @@ pub enum BuildError {
     Invalid(#[from] crate::mesh::MeshProblem),
     #[error("the model's coordinates span more than a float holds (its diagonal is infinite)")]
     TooLargeCoordinates,
+    /// A cell file of a build run in steps ([`cells`]).
+    #[error("{}: {problem}", path.display())]
+    Cell {
+        path: std::path::PathBuf,
+        problem: String,
+    },
 }
 
 /// How many merges between progress callbacks.
@@ -424,16 +431,21 @@ pub fn build_partitioned(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<(VertexTree, BuildStats), BuildError> {
     build_scaled(mesh, progress, &mut |unit, progress| {
-        if unit.triangles.len() <= cell_triangles
-            || unit.colors.is_some()
-            || unit.uvs.is_some()
-            || unit.material_of.is_some()
-        {
+        if builds_whole(unit, cell_triangles) {
             build_unit(unit, options, progress)
         } else {
             partition::build(unit, options, cell_triangles, progress)
         }
     })
+}
+
+/// Whether [`build_partitioned`] builds `unit` whole: it fits in one cell, or carries colours,
+/// texture coordinates or materials, which the cells do not carry yet.
+fn builds_whole(unit: &Mesh, cell_triangles: usize) -> bool {
+    unit.triangles.len() <= cell_triangles
+        || unit.colors.is_some()
+        || unit.uvs.is_some()
+        || unit.material_of.is_some()
 }
 
 /// Runs `build_at_unit` on `mesh`, checked, and scaled to near unit size when it is far from it.
@@ -446,29 +458,35 @@ fn build_scaled(
         &mut dyn FnMut(usize, usize),
     ) -> Result<(VertexTree, BuildStats), BuildError>,
 ) -> Result<(VertexTree, BuildStats), BuildError> {
+    let (unit, factor) = at_unit_size(mesh)?;
+    let (mut tree, stats) = build_at_unit(&unit, progress)?;
+    if factor != 1.0 {
+        tree.scale_lengths(1.0 / factor);
+    }
+    Ok((tree, stats))
+}
+
+/// `mesh`, checked, near unit size: scaled by a power of two when far from it, and the factor.
+///
+/// Quadrics hold fourth powers of lengths in `f32`: far from unit size they underflow (a model
+/// 1e-10 across prices every merge at 0) or overflow (1e7 across writes infinite errors). Such a
+/// model is built at unit size, scaled by a power of two (exact in floating point), and its tree
+/// scaled back.
+fn at_unit_size(mesh: &Mesh) -> Result<(std::borrow::Cow<'_, Mesh>, f32), BuildError> {
     mesh.check().map_err(BuildError::Invalid)?;
-    // Quadrics hold fourth powers of lengths in `f32`: far from unit size they underflow (a model
-    // 1e-10 across prices every merge at 0) or overflow (1e7 across writes infinite errors). Such a
-    // model is built at unit size, scaled by a power of two (exact in floating point), and its tree
-    // scaled back.
     let diagonal = mesh.diagonal();
-    if diagonal.is_finite()
-        && diagonal > 0.0
-        && !(UNSCALED_DIAGONAL.0..=UNSCALED_DIAGONAL.1).contains(&diagonal)
-    {
+    if !diagonal.is_finite() {
+        return Err(BuildError::TooLargeCoordinates);
+    }
+    if diagonal > 0.0 && !(UNSCALED_DIAGONAL.0..=UNSCALED_DIAGONAL.1).contains(&diagonal) {
         let factor = (-diagonal.log2().round()).exp2();
         let unit = Mesh {
             positions: mesh.positions.iter().map(|&p| p * factor).collect(),
             ..mesh.clone()
         };
-        let (mut tree, stats) = build_at_unit(&unit, progress)?;
-        tree.scale_lengths(1.0 / factor);
-        return Ok((tree, stats));
+        return Ok((std::borrow::Cow::Owned(unit), factor));
     }
-    if !diagonal.is_finite() {
-        return Err(BuildError::TooLargeCoordinates);
-    }
-    build_at_unit(mesh, progress)
+    Ok((std::borrow::Cow::Borrowed(mesh), 1.0))
 }
 
 /// Models whose diagonal lies in this range are built as they are: the quadrics' fourth powers stay

@@ -47,7 +47,7 @@ use std::time::Instant;
 /// A node as the cells name it before the tree is numbered: a leaf (an input vertex), or the
 /// `k`-th node made in cell `cell`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Ref(u64);
+pub(super) struct Ref(pub(super) u64);
 
 impl Ref {
     const LEAF: u64 = u32::MAX as u64;
@@ -60,45 +60,45 @@ impl Ref {
         Ref((u64::from(cell) << 32) | u64::from(k))
     }
 
-    fn as_leaf(self) -> Option<u32> {
+    pub(super) fn as_leaf(self) -> Option<u32> {
         (self.0 >> 32 == Ref::LEAF).then_some(self.0 as u32)
     }
 
-    fn cell_and_index(self) -> (u32, u32) {
+    pub(super) fn cell_and_index(self) -> (u32, u32) {
         ((self.0 >> 32) as u32, self.0 as u32)
     }
 }
 
 /// A live vertex between levels: what the builder knows of it.
 #[derive(Clone, Copy)]
-struct Live {
-    node: Ref,
+pub(super) struct Live {
+    pub(super) node: Ref,
     /// Its node's data (its position among them), as a parent's node reads it.
-    current: Node,
-    end: PairEnd,
-    mass: f32,
-    samples: Samples,
+    pub(super) current: Node,
+    pub(super) end: PairEnd,
+    pub(super) mass: f32,
+    pub(super) samples: Samples,
 }
 
 /// What a cell hands its parent.
 #[derive(Default)]
-struct Remains {
-    slots: Vec<Live>,
+pub(super) struct Remains {
+    pub(super) slots: Vec<Live>,
     /// Live triangles: the input triangle, and its corners as indices into `slots`.
-    triangles: Vec<(u32, [u32; 3])>,
+    pub(super) triangles: Vec<(u32, [u32; 3])>,
     /// Partners by loose edges (left by vanished triangles) and close pairs, as indices into `slots`.
-    pairs: Vec<(u32, u32)>,
+    pub(super) pairs: Vec<(u32, u32)>,
 }
 
 /// The nodes one cell made, in the order it made them.
-struct Made {
-    cell: u32,
-    height: u32,
-    nodes: Vec<Node>,
-    children: Vec<[Ref; 2]>,
+pub(super) struct Made {
+    pub(super) cell: u32,
+    pub(super) height: u32,
+    pub(super) nodes: Vec<Node>,
+    pub(super) children: Vec<[Ref; 2]>,
     /// Input triangles vanishing at each node: `vanished[offsets[k]..offsets[k + 1]]`.
-    vanished: Vec<u32>,
-    offsets: Vec<u32>,
+    pub(super) vanished: Vec<u32>,
+    pub(super) offsets: Vec<u32>,
 }
 
 /// A kd-tree node: its triangles (a range of [`Split::order`]), its leaf cells, its children.
@@ -211,8 +211,8 @@ fn split(
     nodes.len() as u32 - 1
 }
 
-/// What every cell reads: the whole mesh's per-vertex data.
-struct Shared<'m> {
+/// What every level reads: the whole mesh's per-vertex data, computed once.
+pub(super) struct Shared<'m> {
     mesh: &'m Mesh,
     options: &'m BuildOptions,
     split: Split,
@@ -223,10 +223,44 @@ struct Shared<'m> {
     ends: Vec<PairEnd>,
     /// Close non-edge pairs, by the kd-tree node that holds both ends' triangles.
     close: Vec<Vec<(u32, u32)>>,
-    mean_edge_length: f32,
-    radius: f32,
+    params: Params,
     merges: AtomicUsize,
+    /// What the preparation did (features, pairs, leaves), for the summary.
+    prefix: BuildStats,
 }
+
+/// The settings a level builds with, the same for every level of a build.
+#[derive(Clone)]
+pub(super) struct Params {
+    pub(super) options: BuildOptions,
+    pub(super) mean_edge_length: f32,
+    /// The radius the root widens from to join separate parts.
+    pub(super) radius: f32,
+}
+
+/// One level's work (a kd-tree node's): everything it needs, nothing shared, so that a cell can
+/// be built in another process from this alone (see [`super::cells`]).
+pub(super) struct LevelInput {
+    pub(super) at: u32,
+    pub(super) height: u32,
+    /// Stop when this many slots are live.
+    pub(super) target: u32,
+    pub(super) root: bool,
+    /// Its slots, triangles and non-edge partners (close pairs and loose edges, between free
+    /// slots; edges are dropped from them when the level runs).
+    pub(super) remains: Remains,
+    pub(super) locked: Vec<bool>,
+}
+
+/// What a level hands on: its remains, the nodes it made, what its build did.
+pub(super) struct LevelOutput {
+    pub(super) remains: Remains,
+    pub(super) made: Made,
+    pub(super) stats: BuildStats,
+}
+
+/// Where the leaf cells' outputs come from: built here, or read from another process's file.
+pub(super) type LeafCells<'a> = dyn Fn(&Shared, u32) -> Result<LevelOutput, BuildError> + Sync + 'a;
 
 /// [`super::build`] of a mesh near unit size in cells of at most `cell_triangles` triangles.
 pub(super) fn build(
@@ -236,117 +270,151 @@ pub(super) fn build(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<(VertexTree, BuildStats), BuildError> {
     let start = Instant::now();
-    if mesh.triangles.is_empty() {
-        return Err(BuildError::Empty);
-    }
-    let n = mesh.positions.len();
-    if n >= super::queue::SLOT as usize {
-        return Err(BuildError::TooLarge(n));
-    }
-    let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
-    let clock = Instant::now();
-    let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
-    let features_secs = clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let close = leaves::close_pairs_for(&mesh.positions, &feats.edges, options, diagonal);
-    let close_secs = clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let (leaf_nodes, mass) = leaves::leaves(
-        mesh,
-        &Collapser::new(mesh.positions.clone(), &mesh.triangles),
-    );
-    let ends: Vec<PairEnd> = feats
-        .quadrics
-        .par_iter()
-        .zip(&feats.vertex_weight)
-        .zip(&mesh.positions)
-        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
-        .collect();
-    let split = Split::new(mesh, cell_triangles);
-    let mut cell_range = vec![(u32::MAX, 0u32); n];
-    for node in split.nodes.iter().filter(|k| k.children.is_none()) {
-        for &t in &split.order[node.triangles.clone()] {
-            for v in mesh.triangles[t as usize] {
-                let r = &mut cell_range[v as usize];
-                *r = (r.0.min(node.cells.start), r.1.max(node.cells.start));
-            }
-        }
-    }
-    let mut by_node = vec![Vec::new(); split.nodes.len()];
-    for &(a, b) in &close {
-        let (ra, rb) = (cell_range[a as usize], cell_range[b as usize]);
-        by_node[split.holding(ra.0.min(rb.0)..ra.1.max(rb.1) + 1) as usize].push((a, b));
-    }
-    let proximity_pairs = close.len() as u32;
-    drop(close);
-    let shared = Shared {
-        mesh,
-        options,
-        split,
-        cell_range,
-        leaf_nodes,
-        mass,
-        ends,
-        close: by_node,
-        mean_edge_length: feats.mean_edge_length,
-        radius: options.pair_distance.max(1e-3) * diagonal,
-        merges: AtomicUsize::new(0),
-    };
-    let feature_edges = feats.is_feature.iter().filter(|&&f| f).count() as u32;
-    drop(feats);
-    let leaves_secs = clock.elapsed().as_secs_f64();
-
-    // Every cell, the halves of each kd-tree node at once; progress from this thread meanwhile.
-    let (remains, made, cell_stats) = std::thread::scope(|scope| {
-        let work = scope.spawn(|| shared.solve(shared.split.root));
-        while !work.is_finished() {
-            progress(shared.merges.load(Ordering::Relaxed), n - 1);
-            std::thread::sleep(std::time::Duration::from_millis(50));
-        }
-        work.join()
-            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-    });
-    debug_assert_eq!(remains.slots.len(), 1);
-    progress(n - 1, n - 1);
-    let mut stats = cell_stats;
-    stats.leaves = n as u32;
-    stats.input_triangles = mesh.triangles.len() as u32;
-    stats.parts = mesh.parts.len() as u32;
-    stats.cells = shared
-        .split
-        .nodes
-        .iter()
-        .filter(|k| k.children.is_none())
-        .count() as u32;
-    stats.levels = shared.split.nodes[shared.split.root as usize].height + 1;
-    stats.feature_edges = feature_edges;
-    stats.proximity_pairs = proximity_pairs;
-    stats.phases.features = features_secs;
-    stats.phases.close_pairs = close_secs;
-    stats.phases.leaves = leaves_secs;
-    let tree = shared.number(made);
-    stats.nodes = tree.nodes.len() as u32;
-    stats.depth = tree.depth();
-    stats.seconds = start.elapsed().as_secs_f64();
-    Ok((tree, stats))
+    let shared = Shared::new(mesh, options, cell_triangles)?;
+    shared.finish(&|shared, at| Ok(shared.build_cell(at)), start, progress)
 }
 
-impl Shared<'_> {
+impl<'m> Shared<'m> {
+    /// The whole mesh's per-vertex data and the kd-tree of its cells.
+    pub(super) fn new(
+        mesh: &'m Mesh,
+        options: &'m BuildOptions,
+        cell_triangles: usize,
+    ) -> Result<Shared<'m>, BuildError> {
+        if mesh.triangles.is_empty() {
+            return Err(BuildError::Empty);
+        }
+        let n = mesh.positions.len();
+        if n >= super::queue::SLOT as usize {
+            return Err(BuildError::TooLarge(n));
+        }
+        let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
+        let mut prefix = BuildStats::default();
+        let clock = Instant::now();
+        let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+        prefix.phases.features = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let close = leaves::close_pairs_for(&mesh.positions, &feats.edges, options, diagonal);
+        prefix.phases.close_pairs = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let (leaf_nodes, mass) = leaves::leaves(
+            mesh,
+            &Collapser::new(mesh.positions.clone(), &mesh.triangles),
+        );
+        let ends: Vec<PairEnd> = feats
+            .quadrics
+            .par_iter()
+            .zip(&feats.vertex_weight)
+            .zip(&mesh.positions)
+            .map(|((q, &w), &p)| PairEnd::new(q, p, w))
+            .collect();
+        let split = Split::new(mesh, cell_triangles);
+        let mut cell_range = vec![(u32::MAX, 0u32); n];
+        for node in split.nodes.iter().filter(|k| k.children.is_none()) {
+            for &t in &split.order[node.triangles.clone()] {
+                for v in mesh.triangles[t as usize] {
+                    let r = &mut cell_range[v as usize];
+                    *r = (r.0.min(node.cells.start), r.1.max(node.cells.start));
+                }
+            }
+        }
+        let mut by_node = vec![Vec::new(); split.nodes.len()];
+        for &(a, b) in &close {
+            let (ra, rb) = (cell_range[a as usize], cell_range[b as usize]);
+            by_node[split.holding(ra.0.min(rb.0)..ra.1.max(rb.1) + 1) as usize].push((a, b));
+        }
+        prefix.proximity_pairs = close.len() as u32;
+        prefix.feature_edges = feats.is_feature.iter().filter(|&&f| f).count() as u32;
+        prefix.phases.leaves = clock.elapsed().as_secs_f64();
+        Ok(Shared {
+            mesh,
+            options,
+            split,
+            cell_range,
+            leaf_nodes,
+            mass,
+            ends,
+            close: by_node,
+            params: Params {
+                options: options.clone(),
+                mean_edge_length: feats.mean_edge_length,
+                radius: options.pair_distance.max(1e-3) * diagonal,
+            },
+            merges: AtomicUsize::new(0),
+            prefix,
+        })
+    }
+
+    /// The leaf cells' kd-tree nodes, in cell order.
+    pub(super) fn cells(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.split.nodes.len() as u32)
+            .filter(|&k| self.split.nodes[k as usize].children.is_none())
+    }
+
+    /// The cell number of leaf kd-tree node `at`.
+    pub(super) fn cell_index(&self, at: u32) -> u32 {
+        self.split.nodes[at as usize].cells.start
+    }
+
+    pub(super) fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Every level, the leaf cells' from `leaf`, the halves of each kd-tree node at once, and the
+    /// nodes numbered into one tree; progress from this thread meanwhile.
+    pub(super) fn finish(
+        &self,
+        leaf: &LeafCells,
+        start: Instant,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<(VertexTree, BuildStats), BuildError> {
+        let n = self.mesh.positions.len();
+        let (remains, made, cell_stats) = std::thread::scope(|scope| {
+            let work = scope.spawn(|| self.solve(self.split.root, leaf));
+            while !work.is_finished() {
+                progress(self.merges.load(Ordering::Relaxed), n - 1);
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            work.join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        })?;
+        debug_assert_eq!(remains.slots.len(), 1);
+        progress(n - 1, n - 1);
+        let mut stats = cell_stats;
+        stats.leaves = n as u32;
+        stats.input_triangles = self.mesh.triangles.len() as u32;
+        stats.parts = self.mesh.parts.len() as u32;
+        stats.cells = self.cells().count() as u32;
+        stats.levels = self.split.nodes[self.split.root as usize].height + 1;
+        stats.feature_edges = self.prefix.feature_edges;
+        stats.proximity_pairs = self.prefix.proximity_pairs;
+        stats.phases.features = self.prefix.phases.features;
+        stats.phases.close_pairs = self.prefix.phases.close_pairs;
+        stats.phases.leaves = self.prefix.phases.leaves;
+        let tree = self.number(made);
+        stats.nodes = tree.nodes.len() as u32;
+        stats.depth = tree.depth();
+        stats.seconds = start.elapsed().as_secs_f64();
+        Ok((tree, stats))
+    }
+
     /// Builds kd-tree node `at`: its cells, then its own level. Returns its remains, the nodes made
     /// under it, and what the builds did.
-    fn solve(&self, at: u32) -> (Remains, Vec<Made>, BuildStats) {
+    fn solve(
+        &self,
+        at: u32,
+        leaf: &LeafCells,
+    ) -> Result<(Remains, Vec<Made>, BuildStats), BuildError> {
         let kd = &self.split.nodes[at as usize];
-        let (input, mut made, mut stats) = match kd.children {
-            None => (self.cell(kd), Vec::new(), BuildStats::default()),
-            Some([l, r]) => {
-                let ((left, mut made, mut stats), (right, more, other)) =
-                    rayon::join(|| self.solve(l), || self.solve(r));
-                made.extend(more);
-                add_stats(&mut stats, &other);
-                (join(left, right), made, stats)
-            }
+        let Some([l, r]) = kd.children else {
+            let out = leaf(self, at)?;
+            return Ok((out.remains, vec![out.made], out.stats));
         };
-        let mut input = input;
+        let (left, right) = rayon::join(|| self.solve(l, leaf), || self.solve(r, leaf));
+        let ((left, mut made, mut stats), (right, more, other)) = (left?, right?);
+        made.extend(more);
+        add_stats(&mut stats, &other);
+        let mut input = join(left, right);
         if at == self.split.root {
             // Vertices of no triangle are in no cell: the root joins them in.
             input.slots.extend(
@@ -355,14 +423,25 @@ impl Shared<'_> {
                     .map(|v| self.leaf_live(v)),
             );
         }
-        let (remains, nodes, level) = self.level(at, input);
-        made.push(nodes);
-        add_stats(&mut stats, &level);
-        (remains, made, stats)
+        let out = run_level(
+            self.prepare(at, input),
+            &self.params,
+            &self.mesh.positions,
+            &self.merges,
+        );
+        made.push(out.made);
+        add_stats(&mut stats, &out.stats);
+        Ok((out.remains, made, stats))
     }
 
-    /// A leaf cell's input: its triangles over its vertices, each a leaf.
-    fn cell(&self, kd: &KdNode) -> Remains {
+    /// Leaf cell `at` built here.
+    fn build_cell(&self, at: u32) -> LevelOutput {
+        run_cell(self.cell_input(at), &self.params, &self.merges)
+    }
+
+    /// Leaf cell `at`'s level: its triangles over its vertices, each a leaf.
+    pub(super) fn cell_input(&self, at: u32) -> LevelInput {
+        let kd = &self.split.nodes[at as usize];
         let triangles = &self.split.order[kd.triangles.clone()];
         let mut vertices: Vec<u32> = triangles
             .iter()
@@ -371,14 +450,15 @@ impl Shared<'_> {
         vertices.par_sort_unstable();
         vertices.dedup();
         let index = |v: u32| vertices.binary_search(&v).unwrap_or(0) as u32;
-        Remains {
+        let remains = Remains {
             triangles: triangles
                 .iter()
                 .map(|&t| (t, self.mesh.triangles[t as usize].map(index)))
                 .collect(),
             slots: vertices.iter().map(|&v| self.leaf_live(v)).collect(),
             pairs: Vec::new(),
-        }
+        };
+        self.prepare(at, remains)
     }
 
     /// Input vertex `v` as a live vertex that has not merged yet.
@@ -394,115 +474,56 @@ impl Shared<'_> {
         }
     }
 
-    /// Builds kd-tree node `at`'s level on `input`: its border (vertices with triangles outside
-    /// it) locked, to half of its free vertices, or to one vertex at the root.
-    fn level(&self, at: u32, input: Remains) -> (Remains, Made, BuildStats) {
+    /// Kd-tree node `at`'s level on `input`: its border (vertices with triangles outside it)
+    /// locked, to half of its free vertices, or to one vertex at the root; the close pairs it
+    /// holds added to the partners.
+    fn prepare(&self, at: u32, mut input: Remains) -> LevelInput {
         let kd = &self.split.nodes[at as usize];
-        let is_root = at == self.split.root;
-        let n = input.slots.len();
+        let root = at == self.split.root;
         let locked: Vec<bool> = input
             .slots
             .iter()
             .map(|s| {
-                !is_root
+                !root
                     && s.node.as_leaf().is_some_and(|v| {
                         let (lo, hi) = self.cell_range[v as usize];
                         lo < kd.cells.start || hi >= kd.cells.end
                     })
             })
             .collect();
+        let n = input.slots.len();
         let free = locked.iter().filter(|&&l| !l).count();
-        let target = if is_root { 1 } else { n - free / 2 };
-        let corners: Vec<[u32; 3]> = input.triangles.iter().map(|t| t.1).collect();
-        let edges = free_edges(n, &corners, &locked);
-        let others = self.other_pairs(at, &input, &locked, &edges);
-
-        let positions: Vec<Vec3> = input.slots.iter().map(|s| s.current.position()).collect();
-        let mesh = Mesh::from_triangles(positions.clone(), corners);
-        let mut collapser = Collapser::new(positions, &mesh.triangles);
-        for &(a, b) in &others {
-            collapser.add_proximity_pair(a, b);
-        }
-        let mut set = SlotSet::new(n);
-        for (i, _) in locked.iter().enumerate().filter(|(_, l)| **l) {
-            set.insert(i as u32);
-        }
-        let slots = &input.slots;
-        let mut nodes = Vec::with_capacity(2 * n);
-        nodes.extend(slots.iter().map(|s| s.current));
-        let mut builder = Builder {
-            mesh: &mesh,
-            leaf_positions: &self.mesh.positions,
-            locked: (!is_root).then_some(set),
-            finisher: false,
-            target_live: target,
-            collapser,
-            ends: slots.iter().map(|s| s.end).collect(),
-            colors: Vec::new(),
-            mass: slots.iter().map(|s| s.mass).collect(),
-            node_of: (0..n as u32).collect(),
-            nodes,
-            vanished: Vec::new(),
-            vanish_offsets: vec![0],
-            metric: self.options.metric,
-            hybrid: self.options.hybrid,
-            mean_edge_length: self.mean_edge_length,
-            color_scale: 0.0,
-            stats: BuildStats::default(),
-            removed: Vec::new(),
-            samples: slots.iter().map(|s| s.samples).collect(),
-            wedges: None,
-            charts: Vec::new(),
-            scales: Vec::new(),
-        };
-        let mut initial = builder.price_pairs(&edges, true);
-        drop(edges);
-        initial.extend(builder.price_pairs(&others, false));
-        let mut radius = self.radius;
-        builder.run_passes(
-            initial,
-            &mut radius,
-            self.options.max_pairs_per_vertex,
-            &mut |_, _| {},
-        );
-        self.merges
-            .fetch_add(builder.nodes.len() - n, Ordering::Relaxed);
-        let stats = builder.stats.clone();
-        let (remains, made) = after_level(at, kd.height, &input, builder);
-        (remains, made, stats)
-    }
-
-    /// The close pairs held at `at` whose ends are both still leaves, and the partners the
-    /// remains carry, between free slots and not edges (`edges` sorted).
-    fn other_pairs(
-        &self,
-        at: u32,
-        input: &Remains,
-        locked: &[bool],
-        edges: &[(u32, u32)],
-    ) -> Vec<(u32, u32)> {
         let close = &self.close[at as usize];
-        let leaf_slot: HashMap<u32, u32> = if close.is_empty() {
-            HashMap::default()
-        } else {
-            input
+        if !close.is_empty() {
+            let leaf_slot: HashMap<u32, u32> = input
                 .slots
                 .iter()
                 .enumerate()
                 .filter_map(|(i, s)| s.node.as_leaf().map(|v| (v, i as u32)))
-                .collect()
-        };
-        let mut others: Vec<(u32, u32)> = close
+                .collect();
+            input.pairs.extend(
+                close
+                    .iter()
+                    .filter_map(|&(a, b)| Some((*leaf_slot.get(&a)?, *leaf_slot.get(&b)?))),
+            );
+        }
+        let mut pairs: Vec<(u32, u32)> = input
+            .pairs
             .iter()
-            .filter_map(|&(a, b)| Some((*leaf_slot.get(&a)?, *leaf_slot.get(&b)?)))
-            .chain(input.pairs.iter().copied())
-            .map(|(a, b)| (a.min(b), a.max(b)))
+            .map(|&(a, b)| (a.min(b), a.max(b)))
             .filter(|&(a, b)| a != b && !locked[a as usize] && !locked[b as usize])
-            .filter(|p| edges.binary_search(p).is_err())
             .collect();
-        others.sort_unstable();
-        others.dedup();
-        others
+        pairs.sort_unstable();
+        pairs.dedup();
+        input.pairs = pairs;
+        LevelInput {
+            at,
+            height: kd.height,
+            target: if root { 1 } else { (n - free / 2) as u32 },
+            root,
+            remains: input,
+            locked,
+        }
     }
 
     /// The tree: the leaves, then the cells' nodes level by level, each level's interleaved by
@@ -571,6 +592,120 @@ impl Shared<'_> {
                 .collect(),
         }
     }
+}
+
+/// Builds one level: its free slots merged, cheapest first, until `input.target` are live (or
+/// only pairs with a locked end are left). `leaf_positions` are the positions the slots' error
+/// samples name.
+fn run_level(
+    input: LevelInput,
+    params: &Params,
+    leaf_positions: &[Vec3],
+    merges: &AtomicUsize,
+) -> LevelOutput {
+    let LevelInput {
+        at,
+        height,
+        target,
+        root,
+        remains: input,
+        locked,
+    } = input;
+    let n = input.slots.len();
+    let corners: Vec<[u32; 3]> = input.triangles.iter().map(|t| t.1).collect();
+    let edges = free_edges(n, &corners, &locked);
+    let mut others = input.pairs.clone();
+    others.retain(|p| edges.binary_search(p).is_err());
+
+    let positions: Vec<Vec3> = input.slots.iter().map(|s| s.current.position()).collect();
+    let mesh = Mesh::from_triangles(positions.clone(), corners);
+    let mut collapser = Collapser::new(positions, &mesh.triangles);
+    for &(a, b) in &others {
+        collapser.add_proximity_pair(a, b);
+    }
+    let mut set = SlotSet::new(n);
+    for (i, _) in locked.iter().enumerate().filter(|(_, l)| **l) {
+        set.insert(i as u32);
+    }
+    let slots = &input.slots;
+    let mut nodes = Vec::with_capacity(2 * n);
+    nodes.extend(slots.iter().map(|s| s.current));
+    let options = &params.options;
+    let mut builder = Builder {
+        mesh: &mesh,
+        leaf_positions,
+        locked: (!root).then_some(set),
+        finisher: false,
+        target_live: target as usize,
+        collapser,
+        ends: slots.iter().map(|s| s.end).collect(),
+        colors: Vec::new(),
+        mass: slots.iter().map(|s| s.mass).collect(),
+        node_of: (0..n as u32).collect(),
+        nodes,
+        vanished: Vec::new(),
+        vanish_offsets: vec![0],
+        metric: options.metric,
+        hybrid: options.hybrid,
+        mean_edge_length: params.mean_edge_length,
+        color_scale: 0.0,
+        stats: BuildStats::default(),
+        removed: Vec::new(),
+        samples: slots.iter().map(|s| s.samples).collect(),
+        wedges: None,
+        charts: Vec::new(),
+        scales: Vec::new(),
+    };
+    let mut initial = builder.price_pairs(&edges, true);
+    drop(edges);
+    initial.extend(builder.price_pairs(&others, false));
+    let mut radius = params.radius;
+    builder.run_passes(
+        initial,
+        &mut radius,
+        options.max_pairs_per_vertex,
+        &mut |_, _| {},
+    );
+    merges.fetch_add(builder.nodes.len() - n, Ordering::Relaxed);
+    let stats = builder.stats.clone();
+    let (remains, made) = after_level(at, height, &input, builder);
+    LevelOutput {
+        remains,
+        made,
+        stats,
+    }
+}
+
+/// [`run_level`] on a leaf cell, whose slots are all leaves: its error samples are renamed to
+/// slots for the build, so that it reads no positions but its own, and back after.
+pub(super) fn run_cell(
+    mut input: LevelInput,
+    params: &Params,
+    merges: &AtomicUsize,
+) -> LevelOutput {
+    let leaf_of: Vec<u32> = input
+        .remains
+        .slots
+        .iter()
+        .map(|s| s.node.as_leaf().unwrap_or(NONE))
+        .collect();
+    let positions: Vec<Vec3> = input
+        .remains
+        .slots
+        .iter()
+        .map(|s| s.current.position())
+        .collect();
+    for (i, s) in input.remains.slots.iter_mut().enumerate() {
+        s.samples = [NONE; SAMPLES];
+        s.samples[0] = i as u32;
+    }
+    let mut out = run_level(input, params, &positions, merges);
+    for s in &mut out.remains.slots {
+        for q in s.samples.iter_mut().filter(|q| **q != NONE) {
+            *q = leaf_of[*q as usize];
+        }
+    }
+    out
 }
 
 /// The edges of `corners` (over `n` slots) between free slots, each once, sorted: grouped by
