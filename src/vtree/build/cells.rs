@@ -107,7 +107,9 @@ pub fn join(
             let path = cell_output_path(dir, index);
             let bytes = read(&path, dir, index)?;
             let (mut r, _) = Reader::open(&bytes, &path, OUTPUT, Some(id), index)?;
-            r.level_output(at, unit)
+            let out = r.level_output(at, unit)?;
+            shared.count_merges(out.made.nodes.len());
+            Ok(out)
         };
         shared.finish(&leaf, start, progress)
     })

@@ -3,7 +3,6 @@
 use super::NONE;
 use super::node::cone_of;
 use crate::mesh::Mesh;
-use crate::simplify::collapse::Collapser;
 use crate::simplify::pairs::close_pairs;
 use crate::vtree::Node;
 use glam::Vec3;
@@ -12,7 +11,12 @@ use rayon::prelude::*;
 /// The leaves: each input vertex's node, with a sphere over its 1-ring (so that it covers the
 /// triangles around the leaf) and a cone of those faces; and its mass, a third of their area.
 /// Each face's normal is computed once, not once a corner.
-pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>) {
+/// `faces_of(v)`: the triangles around vertex `v`, with their corners, in index order.
+pub(super) fn leaves<F, I>(mesh: &Mesh, faces_of: F) -> (Vec<Node>, Vec<f32>)
+where
+    F: Fn(u32) -> I + Sync,
+    I: Iterator<Item = (u32, [u32; 3])> + Clone,
+{
     let n = mesh.positions.len();
     let faces: Vec<(Vec3, f32)> = mesh
         .triangles
@@ -31,7 +35,7 @@ pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>
         .map(|v| {
             let p = mesh.positions[v as usize];
             let (mut radius, mut area, mut nsum) = (0.0f32, 0.0f32, Vec3::ZERO);
-            for (f, c) in collapser.faces_of(v) {
+            for (f, c) in faces_of(v) {
                 let (unit, third) = faces[f as usize];
                 area += third;
                 nsum += unit * third;
@@ -40,8 +44,7 @@ pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>
                 }
             }
             let cone = cone_of(
-                collapser
-                    .faces_of(v)
+                faces_of(v)
                     .map(|(f, _)| faces[f as usize].0)
                     .filter(|n| *n != Vec3::ZERO),
             );
@@ -70,6 +73,40 @@ pub(super) fn leaves(mesh: &Mesh, collapser: &Collapser) -> (Vec<Node>, Vec<f32>
         .unzip_into_vecs(&mut nodes, &mut mass);
     drop(faces);
     (nodes, mass)
+}
+
+/// Each vertex's triangles in index order, in one array grouped by vertex (a counting sort): what
+/// the leaves need of the mesh's adjacency, without a whole working mesh.
+pub(super) struct FaceLists {
+    start: Vec<u32>,
+    faces: Vec<u32>,
+}
+
+impl FaceLists {
+    pub(super) fn new(n: usize, triangles: &[[u32; 3]]) -> FaceLists {
+        let mut start = vec![0u32; n + 1];
+        for t in triangles {
+            for &v in t {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            start[v + 1] += start[v];
+        }
+        let mut fill = start.clone();
+        let mut faces = vec![0u32; 3 * triangles.len()];
+        for (f, t) in triangles.iter().enumerate() {
+            for &v in t {
+                faces[fill[v as usize] as usize] = f as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        FaceLists { start, faces }
+    }
+
+    pub(super) fn of(&self, v: u32) -> &[u32] {
+        &self.faces[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
 }
 
 /// Close non-edge pairs: vertices closer than `distance` and outside each other's 2-ring, at most

@@ -565,7 +565,7 @@ fn build_geometry(
     } = feats;
 
     let mut collapser = Collapser::new(mesh.positions.clone(), &mesh.triangles);
-    let (nodes, mass) = leaves::leaves(mesh, &collapser);
+    let (nodes, mass) = leaves::leaves(mesh, |v| collapser.faces_of(v));
 
     for &(a, b) in &close {
         collapser.add_proximity_pair(a, b);

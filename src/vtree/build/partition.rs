@@ -126,16 +126,8 @@ impl Split {
             .map(|t| t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0)
             .collect();
         let mut order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-        let mut nodes = Vec::new();
-        let mut next_cell = 0;
-        let root = split(
-            &mut order,
-            0,
-            &centroids,
-            cell_triangles.max(1),
-            &mut nodes,
-            &mut next_cell,
-        );
+        let nodes = split(&mut order, 0, &centroids, cell_triangles.max(1));
+        let root = nodes.len() as u32 - 1;
         Split { order, nodes, root }
     }
 
@@ -158,31 +150,29 @@ impl Split {
 }
 
 /// Splits `order` (the triangles at `start..` of the whole order) at the median centroid along
-/// the longest axis of their centroids' box until each part holds at most `cell` triangles.
-/// Returns the new kd-tree node's index.
-fn split(
-    order: &mut [u32],
-    start: usize,
-    centroids: &[Vec3],
-    cell: usize,
-    nodes: &mut Vec<KdNode>,
-    next_cell: &mut u32,
-) -> u32 {
+/// the longest axis of their centroids' box until each part holds at most `cell` triangles, the
+/// halves at once. Returns the kd-tree's nodes, each subtree's before its root (the root last),
+/// its cells numbered from 0 left to right.
+fn split(order: &mut [u32], start: usize, centroids: &[Vec3], cell: usize) -> Vec<KdNode> {
     let len = order.len();
     if len <= cell {
-        *next_cell += 1;
-        nodes.push(KdNode {
+        return vec![KdNode {
             triangles: start..start + len,
-            cells: *next_cell - 1..*next_cell,
+            cells: 0..1,
             children: None,
             height: 0,
-        });
-        return nodes.len() as u32 - 1;
+        }];
     }
-    let (lo, hi) = order.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &t| (lo.min(centroids[t as usize]), hi.max(centroids[t as usize])),
-    );
+    let (lo, hi) = order
+        .par_iter()
+        .fold(
+            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &t| (lo.min(centroids[t as usize]), hi.max(centroids[t as usize])),
+        )
+        .reduce(
+            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
     let extent = hi - lo;
     let axis = if extent.x >= extent.y && extent.x >= extent.z {
         0
@@ -198,17 +188,52 @@ fn split(
             .then(a.cmp(&b))
     });
     let (left, right) = order.split_at_mut(mid);
-    let l = split(left, start, centroids, cell, nodes, next_cell);
-    let r = split(right, start + mid, centroids, cell, nodes, next_cell);
+    let (mut nodes, right) = rayon::join(
+        || split(left, start, centroids, cell),
+        || split(right, start + mid, centroids, cell),
+    );
+    let (offset, cells) = (nodes.len() as u32, nodes[nodes.len() - 1].cells.end);
+    nodes.extend(right.into_iter().map(|k| KdNode {
+        cells: k.cells.start + cells..k.cells.end + cells,
+        children: k.children.map(|c| c.map(|i| i + offset)),
+        ..k
+    }));
+    let (l, r) = (offset - 1, nodes.len() as u32 - 1);
     let (lc, rc) = (&nodes[l as usize], &nodes[r as usize]);
     let node = KdNode {
         triangles: start..start + len,
-        cells: lc.cells.start..rc.cells.end,
+        cells: 0..rc.cells.end,
         children: Some([l, r]),
         height: 1 + lc.height.max(rc.height),
     };
     nodes.push(node);
-    nodes.len() as u32 - 1
+    nodes
+}
+
+/// Each vertex's lowest and highest cell, of the triangles around it (`(u32::MAX, 0)` for a vertex
+/// of no triangle), the cells at once.
+fn cell_ranges(mesh: &Mesh, split: &Split) -> Vec<(u32, u32)> {
+    use std::sync::atomic::AtomicU32;
+    let n = mesh.positions.len();
+    let lo: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(u32::MAX)).collect();
+    let hi: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
+    split
+        .nodes
+        .par_iter()
+        .filter(|k| k.children.is_none())
+        .for_each(|node| {
+            let c = node.cells.start;
+            for &t in &split.order[node.triangles.clone()] {
+                for v in mesh.triangles[t as usize] {
+                    lo[v as usize].fetch_min(c, Ordering::Relaxed);
+                    hi[v as usize].fetch_max(c, Ordering::Relaxed);
+                }
+            }
+        });
+    lo.into_iter()
+        .zip(hi)
+        .map(|(l, h)| (l.into_inner(), h.into_inner()))
+        .collect()
 }
 
 /// What every level reads: the whole mesh's per-vertex data, computed once.
@@ -297,10 +322,12 @@ impl<'m> Shared<'m> {
         let close = leaves::close_pairs_for(&mesh.positions, &feats.edges, options, diagonal);
         prefix.phases.close_pairs = clock.elapsed().as_secs_f64();
         let clock = Instant::now();
-        let (leaf_nodes, mass) = leaves::leaves(
-            mesh,
-            &Collapser::new(mesh.positions.clone(), &mesh.triangles),
-        );
+        let lists = leaves::FaceLists::new(n, &mesh.triangles);
+        let (leaf_nodes, mass) = leaves::leaves(mesh, |v| {
+            let t = &mesh.triangles;
+            lists.of(v).iter().map(move |&f| (f, t[f as usize]))
+        });
+        drop(lists);
         let ends: Vec<PairEnd> = feats
             .quadrics
             .par_iter()
@@ -309,19 +336,17 @@ impl<'m> Shared<'m> {
             .map(|((q, &w), &p)| PairEnd::new(q, p, w))
             .collect();
         let split = Split::new(mesh, cell_triangles);
-        let mut cell_range = vec![(u32::MAX, 0u32); n];
-        for node in split.nodes.iter().filter(|k| k.children.is_none()) {
-            for &t in &split.order[node.triangles.clone()] {
-                for v in mesh.triangles[t as usize] {
-                    let r = &mut cell_range[v as usize];
-                    *r = (r.0.min(node.cells.start), r.1.max(node.cells.start));
-                }
-            }
-        }
+        let cell_range = cell_ranges(mesh, &split);
+        let holder: Vec<u32> = close
+            .par_iter()
+            .map(|&(a, b)| {
+                let (ra, rb) = (cell_range[a as usize], cell_range[b as usize]);
+                split.holding(ra.0.min(rb.0)..ra.1.max(rb.1) + 1)
+            })
+            .collect();
         let mut by_node = vec![Vec::new(); split.nodes.len()];
-        for &(a, b) in &close {
-            let (ra, rb) = (cell_range[a as usize], cell_range[b as usize]);
-            by_node[split.holding(ra.0.min(rb.0)..ra.1.max(rb.1) + 1) as usize].push((a, b));
+        for (&pair, &k) in close.iter().zip(&holder) {
+            by_node[k as usize].push(pair);
         }
         prefix.proximity_pairs = close.len() as u32;
         prefix.feature_edges = feats.is_feature.iter().filter(|&&f| f).count() as u32;
@@ -358,6 +383,11 @@ impl<'m> Shared<'m> {
 
     pub(super) fn params(&self) -> &Params {
         &self.params
+    }
+
+    /// Counts `merges` made elsewhere (a cell built by another process) in the progress.
+    pub(super) fn count_merges(&self, merges: usize) {
+        self.merges.fetch_add(merges, Ordering::Relaxed);
     }
 
     /// Every level, the leaf cells' from `leaf`, the halves of each kd-tree node at once, and the
