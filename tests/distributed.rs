@@ -166,6 +166,10 @@ fn the_join_refuses_missing_and_corrupt_cells() {
     assert!(fails(&vunify(&["cell", s(&dir)])).contains("which cell?"));
     let e = fails(&vunify(&["join", s(&tmp("no-plan")), "-o", s(&out)]));
     assert!(e.contains("plan.json") && e.contains("--plan"), "{e}");
+    // A plan is of a build in cells: --plan alone is a usage error.
+    let alone = vunify(&["build", CESSNA, "--plan", s(&tmp("no-cells"))]);
+    assert_eq!(alone.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&alone.stderr).contains("--cell-triangles"));
 }
 
 /// The Python that has Ray: scripts/test.sh's virtual environment (`VUNIFY_PYTHON`), or
