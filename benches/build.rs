@@ -2,6 +2,11 @@
 //! machine; absolute times drift). Prints Markdown tables for BENCHMARKS.md.
 //!
 //! cargo bench --bench build [-- --models cow,bunny] [--repeat 3] [--skip-quality] [--skip-metrics]
+//! cargo bench --bench build -- --cells N [--threads 1,2,4] [--models dragon] [--repeat 3]
+//!
+//! With `--cells N`, only the partitioned build's table: time against thread count, whole and in
+//! cells of at most N triangles (default threads: 1, 2, 4, … up to the machine's), the runs of one
+//! model alternating between thread counts.
 //!
 //! Build and meshopt times are medians of `--repeat` alternating runs (default 3).
 //!
@@ -71,6 +76,69 @@ fn median(xs: &mut [f64]) -> f64 {
     xs[xs.len() / 2]
 }
 
+fn value_of<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    let i = args.iter().position(|a| a == name)?;
+    args.get(i + 1).map(String::as_str)
+}
+
+/// The partitioned build's time against thread count (medians of `repeat` alternating rounds),
+/// beside the whole build's, each on a pool of that many threads (the whole build's node finisher
+/// is a thread of its own besides).
+fn threads_table(
+    paths: impl Iterator<Item = std::path::PathBuf>,
+    cells: usize,
+    threads: &[usize],
+    repeat: usize,
+) {
+    println!("## Threads: vunify build, whole and in cells of at most {cells} triangles\n");
+    println!("| model | triangles | build | threads | seconds | vs 1 thread |");
+    println!("|---|---:|---|---:|---:|---:|");
+    let options = BuildOptions::default();
+    for path in paths {
+        let Ok((mesh, _)) = mesh::load(&path, &CleanOptions::default()) else {
+            eprintln!("skipping {}", path.display());
+            continue;
+        };
+        let name = path
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().to_string());
+        let run = |t: usize, in_cells: bool| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .expect("pool");
+            let (_, secs, _) = measured(|| {
+                pool.install(|| {
+                    if in_cells {
+                        vtree::build_partitioned(&mesh, &options, cells, &mut |_, _| {})
+                    } else {
+                        vtree::build(&mesh, &options, &mut |_, _| {})
+                    }
+                    .expect("build")
+                })
+            });
+            secs
+        };
+        for in_cells in [false, true] {
+            let mut times = vec![Vec::new(); threads.len()];
+            for _ in 0..repeat {
+                for (i, &t) in threads.iter().enumerate() {
+                    times[i].push(run(t, in_cells));
+                }
+            }
+            let medians: Vec<f64> = times.iter_mut().map(|t| median(t)).collect();
+            for (&t, &m) in threads.iter().zip(&medians) {
+                println!(
+                    "| {name} | {} | {} | {t} | {m:.2} | {:.2} |",
+                    mesh.triangle_count(),
+                    if in_cells { "cells" } else { "whole" },
+                    m / medians[0]
+                );
+            }
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let flag = |name: &str| args.iter().any(|a| a == name);
@@ -100,6 +168,19 @@ fn main() {
         other => format!("{other}.obj"),
     };
     let samples = vunify::measure::DEFAULT_SAMPLES;
+    if let Some(cells) = value_of(&args, "--cells").and_then(|s| s.parse::<usize>().ok()) {
+        let threads: Vec<usize> = value_of(&args, "--threads")
+            .map(|s| s.split(',').filter_map(|t| t.parse().ok()).collect())
+            .unwrap_or_else(|| {
+                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                std::iter::successors(Some(1), |&t| (t < cores).then_some(t * 2)).collect()
+            });
+        let paths = models
+            .iter()
+            .map(|m| std::path::Path::new(&dir).join(file_of(m)));
+        threads_table(paths, cells, &threads, repeat);
+        return;
+    }
 
     println!("## Build: vunify whole tree (qem) vs meshopt::simplify to 1 %\n");
     println!(
