@@ -489,6 +489,17 @@ fn at_unit_size(mesh: &Mesh) -> Result<(std::borrow::Cow<'_, Mesh>, f32), BuildE
     Ok((std::borrow::Cow::Borrowed(mesh), 1.0))
 }
 
+/// Each part of `mesh` as the tree records it: its name and triangle count.
+fn part_infos(mesh: &Mesh) -> Vec<PartInfo> {
+    mesh.parts
+        .iter()
+        .map(|p| PartInfo {
+            name: p.name.clone(),
+            triangles: p.triangles.end - p.triangles.start,
+        })
+        .collect()
+}
+
 /// Models whose diagonal lies in this range are built as they are: the quadrics' fourth powers stay
 /// well inside `f32` (they broke between 1e6 and 1e7 across, and below 1e-9). The range holds every
 /// model of the benchmarks (0.25 to 733 units across), whose trees stay the same bit for bit.
@@ -678,14 +689,7 @@ impl Builder<'_> {
             appearance: None,
             materials: None,
             wedges: None,
-            parts: mesh
-                .parts
-                .iter()
-                .map(|p| PartInfo {
-                    name: p.name.clone(),
-                    triangles: p.triangles.end - p.triangles.start,
-                })
-                .collect(),
+            parts: part_infos(mesh),
         };
         if let (Some((wedges, firsts)), Some(input)) = (wedges, input) {
             (tree.appearance, tree.materials) = wedges::node_appearance(input, &wedges, &firsts);

@@ -27,20 +27,21 @@
 //! order; and [`crate::vtree::extract::cut_at_triangles`] (build order) takes the levels' cheapest
 //! merges first, as a whole build's passes do.
 
+mod kd;
+mod number;
+
 use super::node::{SAMPLES, Samples};
 use super::passes::SlotSet;
-use super::{BuildError, BuildOptions, BuildStats, Builder, NONE, PartInfo, VertexTree, leaves};
+use super::{BuildError, BuildOptions, BuildStats, Builder, NONE, VertexTree, leaves};
 use crate::mesh::Mesh;
 use crate::simplify::collapse::Collapser;
 use crate::simplify::features;
 use crate::simplify::metric::PairEnd;
 use crate::vtree::Node;
 use glam::Vec3;
+use kd::{Split, cell_ranges};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
-use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -99,141 +100,6 @@ pub(super) struct Made {
     /// Input triangles vanishing at each node: `vanished[offsets[k]..offsets[k + 1]]`.
     pub(super) vanished: Vec<u32>,
     pub(super) offsets: Vec<u32>,
-}
-
-/// A kd-tree node: its triangles (a range of [`Split::order`]), its leaf cells, its children.
-struct KdNode {
-    triangles: Range<usize>,
-    cells: Range<u32>,
-    children: Option<[u32; 2]>,
-    /// 0 for a cell; one more than the higher child otherwise.
-    height: u32,
-}
-
-/// The kd-tree over the triangles' centroids.
-struct Split {
-    /// Triangle indices, each cell's a contiguous run.
-    order: Vec<u32>,
-    nodes: Vec<KdNode>,
-    root: u32,
-}
-
-impl Split {
-    fn new(mesh: &Mesh, cell_triangles: usize) -> Split {
-        let centroids: Vec<Vec3> = mesh
-            .triangles
-            .par_iter()
-            .map(|t| t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0)
-            .collect();
-        let mut order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-        let nodes = split(&mut order, 0, &centroids, cell_triangles.max(1));
-        let root = nodes.len() as u32 - 1;
-        Split { order, nodes, root }
-    }
-
-    /// The deepest kd-tree node whose cells include `cells`.
-    fn holding(&self, cells: Range<u32>) -> u32 {
-        let mut at = self.root;
-        'down: loop {
-            if let Some(children) = self.nodes[at as usize].children {
-                for c in children {
-                    let span = &self.nodes[c as usize].cells;
-                    if span.start <= cells.start && cells.end <= span.end {
-                        at = c;
-                        continue 'down;
-                    }
-                }
-            }
-            return at;
-        }
-    }
-}
-
-/// Splits `order` (the triangles at `start..` of the whole order) at the median centroid along
-/// the longest axis of their centroids' box until each part holds at most `cell` triangles, the
-/// halves at once. Returns the kd-tree's nodes, each subtree's before its root (the root last),
-/// its cells numbered from 0 left to right.
-fn split(order: &mut [u32], start: usize, centroids: &[Vec3], cell: usize) -> Vec<KdNode> {
-    let len = order.len();
-    if len <= cell {
-        return vec![KdNode {
-            triangles: start..start + len,
-            cells: 0..1,
-            children: None,
-            height: 0,
-        }];
-    }
-    let (lo, hi) = order
-        .par_iter()
-        .fold(
-            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), &t| (lo.min(centroids[t as usize]), hi.max(centroids[t as usize])),
-        )
-        .reduce(
-            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    let extent = hi - lo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
-    };
-    let mid = len / 2;
-    order.select_nth_unstable_by(mid, |&a, &b| {
-        centroids[a as usize][axis]
-            .total_cmp(&centroids[b as usize][axis])
-            .then(a.cmp(&b))
-    });
-    let (left, right) = order.split_at_mut(mid);
-    let (mut nodes, right) = rayon::join(
-        || split(left, start, centroids, cell),
-        || split(right, start + mid, centroids, cell),
-    );
-    let (offset, cells) = (nodes.len() as u32, nodes[nodes.len() - 1].cells.end);
-    nodes.extend(right.into_iter().map(|k| KdNode {
-        cells: k.cells.start + cells..k.cells.end + cells,
-        children: k.children.map(|c| c.map(|i| i + offset)),
-        ..k
-    }));
-    let (l, r) = (offset - 1, nodes.len() as u32 - 1);
-    let (lc, rc) = (&nodes[l as usize], &nodes[r as usize]);
-    let node = KdNode {
-        triangles: start..start + len,
-        cells: 0..rc.cells.end,
-        children: Some([l, r]),
-        height: 1 + lc.height.max(rc.height),
-    };
-    nodes.push(node);
-    nodes
-}
-
-/// Each vertex's lowest and highest cell, of the triangles around it (`(u32::MAX, 0)` for a vertex
-/// of no triangle), the cells at once.
-fn cell_ranges(mesh: &Mesh, split: &Split) -> Vec<(u32, u32)> {
-    use std::sync::atomic::AtomicU32;
-    let n = mesh.positions.len();
-    let lo: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(u32::MAX)).collect();
-    let hi: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(0)).collect();
-    split
-        .nodes
-        .par_iter()
-        .filter(|k| k.children.is_none())
-        .for_each(|node| {
-            let c = node.cells.start;
-            for &t in &split.order[node.triangles.clone()] {
-                for v in mesh.triangles[t as usize] {
-                    lo[v as usize].fetch_min(c, Ordering::Relaxed);
-                    hi[v as usize].fetch_max(c, Ordering::Relaxed);
-                }
-            }
-        });
-    lo.into_iter()
-        .zip(hi)
-        .map(|(l, h)| (l.into_inner(), h.into_inner()))
-        .collect()
 }
 
 /// What every level reads: the whole mesh's per-vertex data, computed once.
@@ -555,73 +421,6 @@ impl<'m> Shared<'m> {
             locked,
         }
     }
-
-    /// The tree: the leaves, then the cells' nodes level by level, each level's interleaved by
-    /// error (each cell's in the order it made them).
-    fn number(&self, made: Vec<Made>) -> VertexTree {
-        let leaf_count = self.mesh.positions.len() as u32;
-        let order = build_order(&made);
-        // Each cell's nodes' numbers.
-        let mut number: HashMap<u32, Vec<u32>> = made
-            .iter()
-            .map(|m| (m.cell, vec![NONE; m.nodes.len()]))
-            .collect();
-        for (j, &(i, k)) in order.iter().enumerate() {
-            let cell = made[i as usize].cell;
-            if let Some(list) = number.get_mut(&cell) {
-                list[k as usize] = leaf_count + j as u32;
-            }
-        }
-        let resolve = |r: Ref| match r.as_leaf() {
-            Some(v) => v,
-            None => {
-                let (cell, k) = r.cell_and_index();
-                number.get(&cell).map_or(NONE, |l| l[k as usize])
-            }
-        };
-        let mut nodes = self.leaf_nodes.clone();
-        nodes.reserve(order.len());
-        let mut triangles = Vec::with_capacity(self.mesh.triangles.len());
-        let mut vanish_offsets = Vec::with_capacity(order.len() + 1);
-        vanish_offsets.push(0);
-        for &(i, k) in &order {
-            let m = &made[i as usize];
-            let k = k as usize;
-            let mut node = m.nodes[k];
-            node.children = m.children[k].map(resolve);
-            node.parent = NONE;
-            let u = nodes.len() as u32;
-            for c in node.children {
-                nodes[c as usize].parent = u;
-            }
-            nodes.push(node);
-            let gone = &m.vanished[m.offsets[k] as usize..m.offsets[k + 1] as usize];
-            triangles.extend(gone.iter().map(|&f| self.mesh.triangles[f as usize]));
-            vanish_offsets.push(triangles.len() as u32);
-        }
-        VertexTree {
-            leaf_count,
-            nodes,
-            triangles,
-            vanish_offsets,
-            metric: self.options.metric,
-            has_colors: self.mesh.colors.is_some(),
-            has_normals: self.mesh.normals.is_some(),
-            one_sided: self.mesh.one_sided,
-            appearance: None,
-            materials: None,
-            wedges: None,
-            parts: self
-                .mesh
-                .parts
-                .iter()
-                .map(|p| PartInfo {
-                    name: p.name.clone(),
-                    triangles: p.triangles.end - p.triangles.start,
-                })
-                .collect(),
-        }
-    }
 }
 
 /// Builds one level: its free slots merged, cheapest first, until `input.target` are live (or
@@ -851,37 +650,6 @@ fn after_level(at: u32, height: u32, input: &Remains, builder: Builder<'_>) -> (
         offsets: vanish_offsets,
     };
     (remains, made)
-}
-
-/// The order in which the tree numbers the cells' nodes, as (index into `made`, k): level by
-/// level (a kd-tree node's after all of its descendants'), and within a level the cells' nodes
-/// interleaved by error, each cell's in the order it made them.
-///
-/// Every triangle's merges lie in the cells on the path from its leaf cell to the root, whose
-/// order this keeps, so each cut of this order is a cut the cells themselves passed through, side
-/// by side. (A freer order, cheapest first among the nodes whose children are numbered, was
-/// tried: it lets a higher level's merge come before a lower one's that it was priced after, and
-/// some cuts then hold a triangle twice.)
-fn build_order(made: &[Made]) -> Vec<(u32, u32)> {
-    let mut by_level: Vec<u32> = (0..made.len() as u32).collect();
-    by_level.sort_by_key(|&i| (made[i as usize].height, made[i as usize].cell));
-    let mut order = Vec::with_capacity(made.iter().map(|m| m.nodes.len()).sum());
-    for level in by_level.chunk_by(|&a, &b| made[a as usize].height == made[b as usize].height) {
-        let key =
-            |i: u32, k: u32| Reverse((made[i as usize].nodes[k as usize].error.to_bits(), i, k));
-        let mut heads: BinaryHeap<_> = level
-            .iter()
-            .filter(|&&i| !made[i as usize].nodes.is_empty())
-            .map(|&i| key(i, 0))
-            .collect();
-        while let Some(Reverse((_, i, k))) = heads.pop() {
-            order.push((i, k));
-            if (k as usize + 1) < made[i as usize].nodes.len() {
-                heads.push(key(i, k + 1));
-            }
-        }
-    }
-    order
 }
 
 /// Two sibling cells' remains as one: their slots (the border vertices they share once), their
