@@ -5,6 +5,7 @@ use super::node::{FanTriangle, Merged, SAMPLES, Samples, fan_of, finish_node};
 use super::passes::{PassMarks, SlotSet};
 use super::pricing::{PREFETCH_AHEAD, prefetch_end};
 use super::queue::{Entry, NO_EDGE, SLOT, key};
+use super::wedges::WedgeState;
 use super::{Builder, NONE};
 use crate::simplify::attribute_quadric::LocalAttributeQuadric;
 use crate::simplify::collapse::gather_neighbors;
@@ -26,6 +27,13 @@ pub(super) struct FinishBatch {
     /// The survivors' partners by loose edges and proximity pairs, likewise.
     pub(super) extras: Vec<Neighbor>,
     pub(super) extra_ends: Vec<u32>,
+    /// With wedges, the triangles that vanished in each merge, likewise (see [`WedgeTurns`]).
+    pub(super) vanished: Vec<u32>,
+    pub(super) vanished_ends: Vec<u32>,
+    /// With wedges, each merge's node.
+    pub(super) ids: Vec<u32>,
+    /// This batch's place in the pass's order of batches.
+    pub(super) ticket: u64,
 }
 
 /// Merges per [`FinishBatch`] handed to the finishing thread (fewer when their fans reach
@@ -53,6 +61,70 @@ pub(super) struct PassView<'a> {
     /// Slots that never merge (see `Builder::locked`): their pairs are never priced.
     pub(super) locked: Option<&'a SlotSet>,
     pub(super) pricing: Pricing,
+    /// With wedges, their state, joined batch by batch in merge order.
+    pub(super) wedges: Option<&'a WedgeTurns>,
+}
+
+/// The wedges of a pass's merges, joined on whichever thread finishes each batch, but one batch
+/// at a time in merge order (each waits for its ticket): wedges are numbered exactly as on one
+/// thread, and the merging thread, which needs none of this within the pass, never does it.
+pub(super) struct WedgeTurns {
+    /// The state, and the ticket whose turn it is.
+    state: Mutex<(WedgeState, u64)>,
+    turn: Condvar,
+}
+
+impl WedgeTurns {
+    pub(super) fn new(state: WedgeState) -> WedgeTurns {
+        WedgeTurns {
+            state: Mutex::new((state, 0)),
+            turn: Condvar::new(),
+        }
+    }
+
+    pub(super) fn into_inner(self) -> WedgeState {
+        let (state, _) = self
+            .state
+            .into_inner()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        state
+    }
+
+    /// Joins the wedges of `batch`'s merges, once every earlier batch's are, and sets each
+    /// merge's principal wedge.
+    fn join(&self, batch: &mut FinishBatch) {
+        let mut guard = self
+            .state
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        while guard.1 != batch.ticket {
+            guard = self
+                .turn
+                .wait(guard)
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
+        }
+        let state = &mut guard.0;
+        let mut start = 0;
+        for i in 0..batch.nodes.len() {
+            for stage in 1..3 {
+                if let Some((_, m)) = batch.nodes.get(i + (PREFETCH_AHEAD >> stage)) {
+                    state.prefetch_merge(m.slot, m.gone, stage as u32);
+                }
+            }
+            let end = batch.vanished_ends[i] as usize;
+            let merged = &mut batch.nodes[i].1;
+            merged.principal = Some(state.merge(
+                (merged.slot, merged.gone),
+                batch.ids[i],
+                merged.position,
+                batch.vanished[start..end].iter().copied(),
+            ));
+            start = end;
+        }
+        guard.1 += 1;
+        drop(guard);
+        self.turn.notify_all();
+    }
 }
 
 /// Where a batch's results go: its nodes, their kept samples, and whether all their pairs were
@@ -66,6 +138,8 @@ pub(super) struct Places<'a> {
     pub(super) colors: &'a mut [LocalAttributeQuadric],
     /// Every pair of the survivor priced: none waits for the pass to end.
     pub(super) priced: &'a mut [bool],
+    /// With wedges, the survivors' principal textures (empty without).
+    pub(super) charts: &'a mut [u32],
 }
 
 /// The part of a pass's outputs not yet handed to a batch.
@@ -83,12 +157,16 @@ impl<'a> Places<'a> {
         self.colors = rest;
         let (priced, rest) = std::mem::take(&mut self.priced).split_at_mut(n);
         self.priced = rest;
+        let charts = std::mem::take(&mut self.charts);
+        let (charts, rest) = charts.split_at_mut(n.min(charts.len()));
+        self.charts = rest;
         Places {
             nodes,
             kept,
             ends,
             colors,
             priced,
+            charts,
         }
     }
 }
@@ -165,6 +243,14 @@ impl FinishBatch {
         self.nodes.push((node, merged));
     }
 
+    /// With wedges, what joining merge `u`'s wedges reads besides its [`Merged`]: the triangles
+    /// that vanished in it (see [`WedgeTurns`]).
+    pub(super) fn push_vanished(&mut self, u: u32, vanished: impl Iterator<Item = u32>) {
+        self.ids.push(u);
+        self.vanished.extend(vanished);
+        self.vanished_ends.push(self.vanished.len() as u32);
+    }
+
     /// Completes the nodes into `out`, and prices each survivor's pairs with partners in no pair
     /// of the pass into `entries` (see `run_passes`, step 5), marking in `out.priced` the survivors
     /// with no others. Returns the emptied batch for reuse.
@@ -174,6 +260,9 @@ impl FinishBatch {
         out: Places,
         entries: &mut Vec<Entry>,
     ) -> FinishBatch {
+        if let Some(turns) = view.wedges {
+            turns.join(&mut self);
+        }
         let mut around = Vec::new();
         let (mut fan_start, mut extra_start) = (0, 0);
         for (i, &(mut node, merged)) in self.nodes.iter().enumerate() {
@@ -216,6 +305,9 @@ impl FinishBatch {
                 super::wedges::node_color(view.pricing.color_scale, color, merged.principal),
             );
             out.nodes[i] = node;
+            if let Some((_, chart)) = merged.principal {
+                out.charts[i] = chart;
+            }
             let end = PairEnd::merged(&view.ends[s], &view.ends[g], merged.position);
             out.ends[i] = end;
             if let Some(c) = color {
@@ -272,6 +364,9 @@ impl FinishBatch {
         self.fan_ends.clear();
         self.extras.clear();
         self.extra_ends.clear();
+        self.vanished.clear();
+        self.vanished_ends.clear();
+        self.ids.clear();
         self
     }
 }
@@ -339,7 +434,8 @@ impl Builder<'_> {
             std::mem::take(&mut self.charts),
             std::mem::take(&mut self.scales),
         );
-        let mut new_charts = Vec::new();
+        let turns = self.wedges.take().map(WedgeTurns::new);
+        let mut new_charts = vec![0; if turns.is_some() { chosen.len() } else { 0 }];
         let locked = self.locked.take();
         let PassMarks { picked, changed } = marks;
         let view = PassView {
@@ -352,6 +448,7 @@ impl Builder<'_> {
             scales: &scales,
             picked,
             pricing: self.pricing(),
+            wedges: turns.as_ref(),
         };
         let view = &view;
         let mut survivors = Vec::new();
@@ -375,7 +472,9 @@ impl Builder<'_> {
                 ends: &mut new_ends,
                 colors: &mut new_colors,
                 priced: &mut priced_early,
+                charts: &mut new_charts,
             };
+            let mut tickets = 0;
             let mut entries = Vec::new();
             let mut batch = FinishBatch::default();
             for (i, (&index, &cand)) in chosen.iter().zip(priced).enumerate() {
@@ -393,14 +492,17 @@ impl Builder<'_> {
                 let (a, b) = (e.a, e.b & SLOT);
                 let pending = self.pending(a, b);
                 let u = (first_new + survivors.len()) as u32;
-                let (node, mut merged) = self.merge_topology(a, b, &cand, u, pending);
-                merged.principal = self.merge_wedges(&merged, u);
-                new_charts.extend(merged.principal.map(|(_, chart)| chart));
+                let (node, merged) = self.merge_topology(a, b, &cand, u, pending);
+                if view.wedges.is_some() {
+                    batch.push_vanished(u, self.removed.iter().map(|&(f, _)| f));
+                }
                 changed.insert(a);
                 changed.insert(b);
                 survivors.push(merged.slot);
                 batch.push(&self.collapser, node, merged);
                 if batch.nodes.len() == batch_len || batch.fans.len() >= FINISH_FANS {
+                    batch.ticket = tickets;
+                    tickets += 1;
                     let places = out.take(batch.nodes.len());
                     let job = (std::mem::take(&mut batch), places);
                     let back = match &finisher {
@@ -412,13 +514,15 @@ impl Builder<'_> {
                     }
                 }
             }
-            let places = out.take(batch.nodes.len());
-            batch.finish(view, places, &mut entries);
-            // What the finisher has not started yet, finished here alongside it.
+            // What the finisher has not started yet, finished here alongside it, then the last
+            // batch (in this order: with wedges, each batch waits for the ones before it).
             backlog.close();
             while let Some((batch, places)) = backlog.take() {
                 batch.finish(view, places, &mut entries);
             }
+            batch.ticket = tickets;
+            let places = out.take(batch.nodes.len());
+            batch.finish(view, places, &mut entries);
             if let Some(finisher) = finisher {
                 entries.extend(
                     finisher
@@ -430,6 +534,7 @@ impl Builder<'_> {
         });
         (self.ends, self.colors) = (ends, colors);
         (self.charts, self.scales) = (charts, scales);
+        self.wedges = turns.map(WedgeTurns::into_inner);
         self.locked = locked;
         nodes.truncate(first_new + survivors.len());
         self.nodes = nodes;
