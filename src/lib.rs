@@ -8,6 +8,7 @@
 #[cfg(feature = "viewer")]
 pub mod app;
 pub mod camera_path;
+pub mod color;
 pub mod display;
 pub mod export;
 #[doc(hidden)]

@@ -89,6 +89,56 @@ fn build_info_extract_measure() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--bound must be"));
 }
 
+/// `vunify build` writes the paged file (version 4) unless told `--exact` (version 1 here, no
+/// appearance): at most 32 bytes a triangle against about 98, the position error stated by
+/// `info`, and the same levels extracted from both.
+#[test]
+fn build_writes_paged_files_unless_exact() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let (paged, exact) = (tmp("paged.vtree"), tmp("exact.vtree"));
+    let (p, e) = (paged.to_str().unwrap(), exact.to_str().unwrap());
+    let said = ok(&vunify(&["build", model, "-o", p]));
+    assert!(
+        said.contains("bytes a triangle (paged, quantised)"),
+        "{said}"
+    );
+    ok(&vunify(&["build", model, "-o", e, "--exact"]));
+    let version = |path: &PathBuf| std::fs::read(path).unwrap()[8];
+    assert_eq!((version(&paged), version(&exact)), (4, 1));
+    let info = |t: &str| -> serde_json::Value {
+        serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap()
+    };
+    let (ip, ie) = (info(p), info(e));
+    let triangles = 13546.0;
+    let per_triangle = |i: &serde_json::Value| i["file_bytes"].as_f64().unwrap() / triangles;
+    assert!(per_triangle(&ip) <= 32.0, "{}", per_triangle(&ip));
+    assert!(per_triangle(&ie) > 90.0, "{}", per_triangle(&ie));
+    let stated = ip["position_error"].as_f64().unwrap();
+    assert!(stated > 0.0 && stated < 1e-4 * ip["diagonal"].as_f64().unwrap());
+    assert_eq!(ie["position_error"], 0.0);
+    let text = ok(&vunify(&["info", p]));
+    assert!(text.contains("stored     paged"), "{text}");
+    let level = |t: &str, name: &str| {
+        let out = tmp(name);
+        ok(&vunify(&[
+            "extract",
+            t,
+            "--ratio",
+            "0.1",
+            "-o",
+            out.to_str().unwrap(),
+        ]))
+    };
+    assert_eq!(
+        level(p, "p10.obj")
+            .split_whitespace()
+            .find(|w| w.parse::<u32>().is_ok()),
+        level(e, "e10.obj")
+            .split_whitespace()
+            .find(|w| w.parse::<u32>().is_ok())
+    );
+}
+
 /// `--cell-triangles`: the cessna in cells of at most 2000 triangles (8 cells, 4 levels) is one
 /// tree that `info --check` passes, its 10 % level close to the whole build's; 0 is refused.
 #[test]

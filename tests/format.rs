@@ -249,3 +249,253 @@ fn materials_round_trip() {
         );
     }
 }
+
+/// A tree of several pages: a wavy 90 × 90 grid (8,281 leaves, 16,561 nodes) and a loose
+/// fan beside it, so that the pages hold separate parts and non-edge merges too.
+fn paged_tree() -> VertexTree {
+    let mesh = scene(
+        &[
+            grid(90, 90, |x, y| 3.0 * (0.21 * x).sin() * (0.13 * y).cos()),
+            grid(3, 1, |x, _| x * x),
+        ],
+        4.0,
+    );
+    vtree::build(&mesh, &BuildOptions::default(), &mut |_, _| {})
+        .unwrap()
+        .0
+}
+
+/// The angle between two vectors, radians.
+fn angle(a: glam::Vec3, b: glam::Vec3) -> f32 {
+    a.normalize().dot(b.normalize()).clamp(-1.0, 1.0).acos()
+}
+
+/// The paged file keeps every link and triangle exactly, and everything it rounds it rounds the
+/// safe way: positions within the stated error, each error grown by at least its node's move,
+/// each sphere holding the built one, each cone holding the built one.
+#[test]
+fn paged_round_trip_keeps_links_and_widens_every_bound() {
+    let tree = paged_tree();
+    let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
+    assert_eq!(bytes[8..12], 4u32.to_le_bytes());
+    let back = vtree::read_bytes(&bytes, Path::new("p.vtree")).unwrap();
+    assert_eq!(back.leaf_count, tree.leaf_count);
+    assert_eq!(back.triangles, tree.triangles);
+    assert_eq!(back.vanish_offsets, tree.vanish_offsets);
+    assert_eq!(back.parts, tree.parts);
+    let diagonal = tree.diagonal();
+    assert!(back.position_error > 0.0 && back.position_error < 1e-4 * diagonal);
+    for (u, (a, b)) in tree.nodes.iter().zip(&back.nodes).enumerate() {
+        assert_eq!((a.children, a.parent), (b.children, b.parent), "node {u}");
+        let moved = a.position().distance(b.position());
+        assert!(moved <= back.position_error, "node {u} moved {moved}");
+        assert!(
+            b.error >= a.error + moved,
+            "node {u}: {} from {}",
+            b.error,
+            a.error
+        );
+        let (ca, cb) = (
+            glam::Vec3::from_slice(&a.sphere),
+            glam::Vec3::from_slice(&b.sphere),
+        );
+        assert!(
+            ca.distance(cb) + a.sphere[3] + back.position_error <= b.sphere[3] * (1.0 + 1e-6),
+            "node {u}: sphere {:?} does not hold {:?}",
+            b.sphere,
+            a.sphere
+        );
+        if a.cone[3] > -1.0 {
+            let (axis_a, axis_b) = (
+                glam::Vec3::from_slice(&a.cone),
+                glam::Vec3::from_slice(&b.cone),
+            );
+            let wide = b.cone[3] <= -1.0
+                || angle(axis_a, axis_b) + a.cone[3].acos() <= b.cone[3].acos() + 1e-4;
+            assert!(
+                wide,
+                "node {u}: cone {:?} does not hold {:?}",
+                b.cone, a.cone
+            );
+        }
+        let n = glam::Vec3::from_array(a.normal);
+        if n != glam::Vec3::ZERO {
+            assert!(angle(n, glam::Vec3::from_array(b.normal)) < 0.1f32.to_radians());
+        }
+    }
+    // The strict bound still bounds the distance to the input's (the built tree's) leaves.
+    let bounds = back.deviation_bounds();
+    for v in 0..tree.leaf_count {
+        let p = tree.nodes[v as usize].position();
+        let mut u = v;
+        while u != vtree::NONE {
+            let d = p.distance(back.nodes[u as usize].position());
+            assert!(d <= bounds[u as usize], "leaf {v} at {d} from node {u}");
+            u = back.nodes[u as usize].parent;
+        }
+    }
+    // About a third of the exact file.
+    let exact = vtree::to_bytes(&tree).len();
+    assert!(
+        bytes.len() * 5 < exact * 2,
+        "{} vs {exact} bytes",
+        bytes.len()
+    );
+}
+
+/// Pages are connected pieces of the tree of at most `PAGE_NODES` nodes, each node in exactly
+/// one, each page's root its only node whose parent lies outside it; the root's page is last.
+#[test]
+fn pages_are_connected_subtrees_of_bounded_size() {
+    let tree = paged_tree();
+    let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
+    let pages = vtree::read_pages(&bytes, Path::new("p.vtree")).unwrap();
+    assert!(pages.len() >= 4, "{} pages", pages.len());
+    let mut page_of = vec![usize::MAX; tree.nodes.len()];
+    for (p, page) in pages.iter().enumerate() {
+        assert!(!page.nodes.is_empty() && page.nodes.len() <= vtree::PAGE_NODES);
+        for &u in &page.nodes {
+            assert_eq!(page_of[u as usize], usize::MAX, "node {u} in two pages");
+            page_of[u as usize] = p;
+        }
+    }
+    assert!(page_of.iter().all(|&p| p != usize::MAX));
+    for (p, page) in pages.iter().enumerate() {
+        for &u in &page.nodes {
+            let parent = tree.nodes[u as usize].parent;
+            let outside = parent == vtree::NONE || page_of[parent as usize] != p;
+            assert_eq!(outside, u == page.root, "page {p}, node {u}");
+        }
+    }
+    assert_eq!(pages.last().unwrap().root, tree.root());
+    // The exact layout has none.
+    let exact = vtree::to_bytes(&tree);
+    assert!(
+        vtree::read_pages(&exact, Path::new("e.vtree"))
+            .unwrap()
+            .is_empty()
+    );
+}
+
+/// A changed byte inside a page is caught, named by its page and the page's byte offset; the
+/// same bytes come out on any number of threads.
+#[test]
+fn a_corrupt_page_is_named_and_pages_are_deterministic() {
+    let tree = paged_tree();
+    let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| vtree::to_bytes_with(&tree, vtree::Encoding::Paged));
+    assert_eq!(one, bytes);
+    // The last section before PART is PDAT; flip bytes spread over it.
+    let pages = vtree::read_pages(&bytes, Path::new("p.vtree")).unwrap();
+    assert!(pages.len() > 1);
+    let len = bytes.len();
+    for i in (len / 3..len - 64).step_by(997) {
+        let mut bad = bytes.clone();
+        bad[i] ^= 0x21;
+        let e = vtree::read_bytes(&bad, Path::new("bad.vtree")).unwrap_err();
+        assert!(e.offset.is_some(), "byte {i}: {e}");
+    }
+    // A page's own checksum catches what the section's would (a reader of single pages relies
+    // on it): corrupt one page and fix the section's checksum.
+    let mut bad = bytes.clone();
+    let table_end = 16 + 32 * u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let pdat = (0..table_end / 32)
+        .map(|k| 16 + 32 * k)
+        .find(|&at| &bytes[at..at + 4] == b"PDAT")
+        .unwrap();
+    let offset = u64::from_le_bytes(bytes[pdat + 8..pdat + 16].try_into().unwrap()) as usize;
+    let length = u64::from_le_bytes(bytes[pdat + 16..pdat + 24].try_into().unwrap()) as usize;
+    bad[offset + length / 2] ^= 0x10;
+    let sum = crc32fast::hash(&bad[offset..offset + length]);
+    bad[pdat + 24..pdat + 28].copy_from_slice(&sum.to_le_bytes());
+    let table_crc = crc32fast::hash(&bad[..table_end]);
+    bad[table_end..table_end + 4].copy_from_slice(&table_crc.to_le_bytes());
+    let e = vtree::read_bytes(&bad, Path::new("bad.vtree")).unwrap_err();
+    assert!(
+        e.message.contains("page") && e.message.contains("checksum"),
+        "{e}"
+    );
+    assert!(e.offset.is_some_and(|o| o as usize >= offset), "{e}");
+}
+
+/// Sets every checksum of a paged file right again: each page's in the directory, each
+/// section's and the table's, so that damage reaches the page decoder itself.
+fn fix_checksums(bytes: &mut [u8]) {
+    let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    let u64_at = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap());
+    let count = u32_at(bytes, 12) as usize;
+    let table_end = 16 + 32 * count;
+    let section = |b: &[u8], tag: &[u8; 4]| {
+        let at = (0..count)
+            .map(|k| 16 + 32 * k)
+            .find(|&at| &b[at..at + 4] == tag)?;
+        Some((at, u64_at(b, at + 8) as usize, u64_at(b, at + 16) as usize))
+    };
+    let (Some((_, dir, _)), Some((_, data, _))) =
+        (section(bytes, b"PAGE"), section(bytes, b"PDAT"))
+    else {
+        return;
+    };
+    // The directory may be damaged too: fix what it still points at.
+    for p in 0..(u32_at(bytes, dir) as usize).min(1 << 16) {
+        let entry = dir + 12 + 24 * p;
+        if entry + 24 > data {
+            break;
+        }
+        let (offset, length) = (
+            u64_at(bytes, entry) as usize,
+            u32_at(bytes, entry + 8) as usize,
+        );
+        let Some(body) = data
+            .checked_add(offset)
+            .and_then(|a| bytes.get(a..a.checked_add(length)?))
+        else {
+            continue;
+        };
+        let sum = crc32fast::hash(body);
+        bytes[entry + 12..entry + 16].copy_from_slice(&sum.to_le_bytes());
+    }
+    for k in 0..count {
+        let at = 16 + 32 * k;
+        let (offset, length) = (
+            u64_at(bytes, at + 8) as usize,
+            u64_at(bytes, at + 16) as usize,
+        );
+        let sum = crc32fast::hash(&bytes[offset..offset + length]);
+        bytes[at + 24..at + 28].copy_from_slice(&sum.to_le_bytes());
+    }
+    let sum = crc32fast::hash(&bytes[..table_end]);
+    bytes[table_end..table_end + 4].copy_from_slice(&sum.to_le_bytes());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Damage inside the pages that every checksum was made to agree with reaches the decoder,
+    /// which answers with an error (or, where the damage only moved a number within range, a
+    /// tree that passes the check), never a panic.
+    #[test]
+    fn damaged_pages_with_good_checksums_are_errors_not_panics(
+        damage in proptest::collection::vec((0.0f64..1.0, any::<u8>()), 1..6)
+    ) {
+        static BYTES: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+        let bytes = BYTES.get_or_init(|| {
+            vtree::to_bytes_with(&paged_tree(), vtree::Encoding::Paged)
+        });
+        let mut bad = bytes.clone();
+        // The pages lie in the second half of the file, before PART.
+        let start = 16 + 32 * 5;
+        for (at, x) in damage {
+            let i = start + ((bad.len() - start - 40) as f64 * at) as usize;
+            bad[i] ^= x | 1;
+        }
+        fix_checksums(&mut bad);
+        if let Ok(tree) = vtree::read_bytes(&bad, Path::new("damaged.vtree")) {
+            prop_assert!(vtree::check(&tree).is_ok());
+        }
+    }
+}

@@ -64,6 +64,12 @@ pub struct BuildArgs {
     /// Keep vertices with identical positions apart (welding is on by default).
     #[arg(long)]
     no_weld: bool,
+    /// Write every node exactly as built (84 bytes of f32s, format version 1 to 3) instead of the
+    /// default paged file (version 4: pages of a few thousand nodes, each checksummed; positions,
+    /// bounds and errors quantised, with every error and bound widened by what quantising moved;
+    /// about a third of the size).
+    #[arg(long)]
+    pub exact: bool,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -126,7 +132,25 @@ pub fn run(args: BuildArgs) -> Result<()> {
         (Some(cells), None) => How::Cells(cells),
         (None, _) => How::Whole,
     };
-    build_and_write(&args.input, &output, &options, &clean, how, args.json)
+    let encoding = encoding(args.exact);
+    build_and_write(
+        &args.input,
+        &output,
+        &options,
+        &clean,
+        how,
+        encoding,
+        args.json,
+    )
+}
+
+/// The file layout `--exact` asks for.
+pub fn encoding(exact: bool) -> vtree::Encoding {
+    if exact {
+        vtree::Encoding::Exact
+    } else {
+        vtree::Encoding::Paged
+    }
 }
 
 /// How `build_and_write` builds the tree.
@@ -159,6 +183,7 @@ pub fn build_and_write(
     options: &BuildOptions,
     clean: &CleanOptions,
     how: How,
+    encoding: vtree::Encoding,
     json: bool,
 ) -> Result<()> {
     let t0 = Instant::now();
@@ -188,13 +213,16 @@ pub fn build_and_write(
         }
     };
     bar.finish_and_clear();
-    vtree::write(&tree, output).with_context(|| format!("cannot write {}", output.display()))?;
+    vtree::write_with(&tree, output, encoding)
+        .with_context(|| format!("cannot write {}", output.display()))?;
+    let file_bytes = std::fs::metadata(output).map_or(0, |m| m.len());
     let peak = peak_memory_bytes();
     if json {
         let json = serde_json::json!({
             "input": input, "output": output, "metric": options.metric.name(),
             "vertices": mesh.vertex_count(), "triangles": mesh.triangle_count(), "parts": mesh.parts.len(),
             "cleaned": cleaned, "build": stats, "load_seconds": load_secs, "peak_memory_bytes": peak,
+            "file_bytes": file_bytes,
         });
         println!("{}", serde_json::to_string_pretty(&json)?);
         return Ok(());
@@ -237,6 +265,15 @@ pub fn build_and_write(
     println!(
         "time       load {load_secs:.2} s, build {:.2} s",
         stats.seconds
+    );
+    let layout = match encoding {
+        vtree::Encoding::Paged => "paged, quantised",
+        vtree::Encoding::Exact => "exact",
+    };
+    println!(
+        "file       {:.1} MB, {:.1} bytes a triangle ({layout})",
+        file_bytes as f64 / 1e6,
+        file_bytes as f64 / mesh.triangle_count().max(1) as f64
     );
     let p = &stats.phases;
     println!(

@@ -148,6 +148,9 @@ pub struct JoinArgs {
     /// Output .vtree file (written atomically).
     #[arg(short, long)]
     output: PathBuf,
+    /// Write the exact layout, as `vunify build --exact` does.
+    #[arg(long)]
+    exact: bool,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -162,6 +165,7 @@ pub fn run_join(args: JoinArgs) -> Result<()> {
         &plan.options,
         &clean,
         How::Join(&args.dir, plan.cell_triangles),
+        super::build::encoding(args.exact),
         args.json,
     )
 }

@@ -40,6 +40,7 @@ pub fn run() -> Result<()> {
         &BuildOptions::default(),
         &CleanOptions::default(),
         super::build::How::Whole,
+        vunify::vtree::Encoding::Paged,
         false,
     )?;
     if super::has_display() {

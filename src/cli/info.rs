@@ -26,6 +26,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
         })?;
     }
     let root = &tree.nodes[tree.root() as usize];
+    let file_bytes = std::fs::metadata(&file).map_or(0, |m| m.len());
     let textures = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
     let materials: Vec<&vunify::mesh::Material> =
         tree.materials.iter().flat_map(|m| &m.list).collect();
@@ -37,6 +38,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
             "materials": materials, "wedges": tree.wedges.as_ref().map(|w| w.len()),
             "leaf_wedges": tree.wedges.as_ref().map(|w| w.node.iter().filter(|&&u| u < tree.leaf_count).count()),
             "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
+            "position_error": tree.position_error, "file_bytes": file_bytes,
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
         return Ok(());
@@ -50,6 +52,16 @@ pub fn run(args: InfoArgs) -> Result<()> {
         tree.metric.name()
     );
     println!("triangles  {}", tree.triangles.len());
+    let per_triangle = file_bytes as f64 / tree.triangles.len().max(1) as f64;
+    if tree.position_error > 0.0 {
+        println!(
+            "stored     paged, {per_triangle:.1} bytes a triangle; positions within {:.3e} ({:.5} % of the diagonal), every error and bound widened by it",
+            tree.position_error,
+            100.0 * tree.position_error / tree.diagonal().max(f32::MIN_POSITIVE)
+        );
+    } else {
+        println!("stored     exact, {per_triangle:.1} bytes a triangle");
+    }
     println!(
         "attributes colours: {}, normals: {}",
         tree.has_colors, tree.has_normals

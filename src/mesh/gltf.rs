@@ -408,16 +408,8 @@ pub(super) fn decode_image(bytes: &[u8]) -> Result<Image, String> {
         width: w,
         height: h,
         rgb,
-        linear: std::array::from_fn(|c| srgb_to_linear(c as f32 / 255.0)),
+        linear: std::array::from_fn(|c| crate::color::srgb_to_linear(c as f32 / 255.0)),
     })
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
 }
 
 /// The deepest node graph the reader follows: glTF's graph is a forest, but a malformed file may

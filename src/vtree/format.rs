@@ -10,11 +10,14 @@ use crate::simplify::Metric;
 use std::path::{Path, PathBuf};
 
 pub const MAGIC: [u8; 8] = *b"VUNIFYVT";
-/// The newest format version this build reads and writes: 3, a tree with wedges (the optional
-/// `WEDG` section, per-corner appearance); a tree with appearance but no wedges is written as
-/// version 2 (the optional `UVTX`, `TEXS` and `MATL` sections), one without either as version 1,
+/// The newest format version this build reads and writes: 4, the paged, quantised nodes of
+/// [`Encoding::Paged`] (sections `PAGE` and `PDAT` instead of `NODE`, `TRIS` and `VOFF`). An
+/// exact file is version 3 with wedges (the optional `WEDG` section, per-corner appearance), 2
+/// with appearance but no wedges (the optional `UVTX`, `TEXS` and `MATL` sections), else 1,
 /// which readers from before appearance read too.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
+/// The version of an exact tree with wedges (see [`Encoding::Exact`]).
+const WEDGE_VERSION: u32 = 3;
 /// The oldest version this build reads.
 pub const OLDEST_FORMAT_VERSION: u32 = 1;
 const TABLE_ENTRY: usize = 32;
@@ -26,8 +29,24 @@ const NODE_LEN: u64 = std::mem::size_of::<Node>() as u64;
 const FLAG_COLORS: u32 = 1;
 const FLAG_NORMALS: u32 = 2;
 const FLAG_ONE_SIDED: u32 = 4;
+/// Version 4: the pages store node colours (else every node is white).
+const FLAG_NODE_COLORS: u32 = 8;
 
 const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
+/// Version 4's instead: the page directory and the pages (see [`super::paged`]).
+const PAGED_SECTIONS: [[u8; 4]; 4] = [*b"META", *b"PAGE", *b"PDAT", *b"PART"];
+
+/// How a file stores the nodes and triangles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Encoding {
+    /// In pages of a few thousand nodes, each checked alone, positions, bounds and errors
+    /// quantised (errors and bounds widened to hold): about a third of the exact size.
+    #[default]
+    Paged,
+    /// Every node as built (84 bytes, `f32`s), every triangle as three `u32`s.
+    Exact,
+}
+
 /// Sections a tree may have or not (readers before them skip them): a textured tree's per-node
 /// texture coordinates and texture (`u`, `v` as f32, the texture as u32), and its textures (a
 /// count, then each as a u64 length and its image file's bytes); and its materials (a u32 length
@@ -63,20 +82,31 @@ fn crc(bytes: &[u8]) -> u32 {
     crc32fast::hash(bytes)
 }
 
-/// Serialises a tree.
+/// Serialises a tree exactly.
 pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
+    to_bytes_with(tree, Encoding::Exact)
+}
+
+/// Serialises a tree with `encoding`.
+pub fn to_bytes_with(tree: &VertexTree, encoding: Encoding) -> Vec<u8> {
     let mut out = Vec::new();
-    write_to(tree, &mut out).expect("writing to memory cannot fail");
+    write_to(tree, encoding, &mut out).expect("writing to memory cannot fail");
     out
 }
 
 /// Writes a tree's file to `out`: the header and the section table (their checksums computed from
 /// the tree's arrays), then each section straight from the array that holds it.
-pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+fn write_to(
+    tree: &VertexTree,
+    encoding: Encoding,
+    out: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
     let mut meta = Vec::with_capacity(META_LEN);
+    let node_colors = encoding == Encoding::Paged && super::paged::any_color(tree);
     let flags = if tree.has_colors { FLAG_COLORS } else { 0 }
         | if tree.has_normals { FLAG_NORMALS } else { 0 }
-        | if tree.one_sided { FLAG_ONE_SIDED } else { 0 };
+        | if tree.one_sided { FLAG_ONE_SIDED } else { 0 }
+        | if node_colors { FLAG_NODE_COLORS } else { 0 };
     for x in [
         tree.leaf_count,
         tree.nodes.len() as u32,
@@ -97,14 +127,24 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
     }
     // The in-memory layouts are little-endian Pod on every platform vunify targets.
     const { assert!(cfg!(target_endian = "little")) };
-    let mut sections: Vec<&[u8]> = vec![
-        &meta,
-        bytemuck::cast_slice(&tree.nodes),
-        bytemuck::cast_slice(&tree.triangles),
-        bytemuck::cast_slice(&tree.vanish_offsets),
-        &parts,
-    ];
-    let mut tags: Vec<[u8; 4]> = SECTIONS.to_vec();
+    let paged = (encoding == Encoding::Paged).then(|| super::paged::encode(tree, node_colors));
+    let (mut sections, mut tags): (Vec<&[u8]>, Vec<[u8; 4]>) = match &paged {
+        None => (
+            vec![
+                &meta,
+                bytemuck::cast_slice(&tree.nodes),
+                bytemuck::cast_slice(&tree.triangles),
+                bytemuck::cast_slice(&tree.vanish_offsets),
+                &parts,
+            ],
+            SECTIONS.to_vec(),
+        ),
+        Some(p) => (
+            vec![&meta, &p.directory, &p.pages, &parts],
+            PAGED_SECTIONS.to_vec(),
+        ),
+    };
+    let base_sections = sections.len();
     let (mut uvtx, mut texs) = (Vec::new(), Vec::new());
     if let Some(a) = &tree.appearance {
         for (uv, t) in a.uvs.iter().zip(&a.texture_of) {
@@ -149,9 +189,11 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
     // Appearance is what version 2 added: a reader from before it would skip those sections as
     // unknown and draw the model untextured, so it is told the file is newer instead.
     // Wedges, version 3's, likewise.
-    let version = if tree.wedges.is_some() {
+    let version = if paged.is_some() {
         FORMAT_VERSION
-    } else if sections.len() > SECTIONS.len() {
+    } else if tree.wedges.is_some() {
+        WEDGE_VERSION
+    } else if sections.len() > base_sections {
         2
     } else {
         OLDEST_FORMAT_VERSION
@@ -181,6 +223,11 @@ pub fn write_to(tree: &VertexTree, out: &mut dyn std::io::Write) -> std::io::Res
 /// crash leaves either the old file or the new one, never half of one. A tree that the reader would
 /// reject ([`check`](super::check)) is not written: that would be a bug, and it is reported as one.
 pub fn write(tree: &VertexTree, path: &Path) -> std::io::Result<()> {
+    write_with(tree, path, Encoding::Exact)
+}
+
+/// [`write`] with `encoding`.
+pub fn write_with(tree: &VertexTree, path: &Path, encoding: Encoding) -> std::io::Result<()> {
     // The consistency check runs alongside the writing; an inconsistent tree never takes the
     // file's place.
     let check = || {
@@ -193,7 +240,7 @@ pub fn write(tree: &VertexTree, path: &Path) -> std::io::Result<()> {
             )
         })
     };
-    crate::export::write_atomic_checked(path, |out| write_to(tree, out), check)
+    crate::export::write_atomic_checked(path, |out| write_to(tree, encoding, out), check)
 }
 
 pub fn read(path: &Path) -> Result<VertexTree, FormatError> {
@@ -222,8 +269,24 @@ impl Cursor<'_> {
 /// Parses and validates `.vtree` bytes; `path` names the file in errors.
 pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> {
     let fail = Fail { path };
-    let ([meta, node_bytes, tri_bytes, off_bytes, part_bytes], [uvtx, texs, matl, wedg]) =
-        sections(bytes, &fail)?;
+    let (version, found) = sections(bytes, &fail)?;
+    let get = |tag: &[u8; 4]| {
+        found
+            .iter()
+            .find(|(t, _, _)| t == tag)
+            .map(|&(_, at, b)| (at, b))
+    };
+    let need = |tag: &[u8; 4]| {
+        get(tag).ok_or_else(|| {
+            fail.invalid(format!(
+                "section {} is missing",
+                String::from_utf8_lossy(tag)
+            ))
+        })
+    };
+    let [uvtx, texs, matl, wedg] = OPTIONAL.map(|t| get(&t).map(|(_, b)| b));
+    let (_, meta) = need(b"META")?;
+    let (_, part_bytes) = need(b"PART")?;
     if meta.len() != META_LEN {
         return Err(fail.at(
             None,
@@ -255,14 +318,49 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
     if leaves == 0 || nodes < leaves {
         return Err(fail.invalid(format!("META says {nodes} nodes for {leaves} leaves")));
     }
-    want("NODE", node_bytes.len(), nodes as u64, NODE_LEN)?;
-    want("TRIS", tri_bytes.len(), tris as u64, 12)?;
-    want("VOFF", off_bytes.len(), (nodes - leaves) as u64 + 1, 4)?;
+    let (node_list, triangles, vanish_offsets, position_error) = if version >= 4 {
+        if nodes != 2 * leaves - 1 {
+            return Err(fail.invalid(format!("META says {nodes} nodes for {leaves} leaves")));
+        }
+        let (_, dir) = need(b"PAGE")?;
+        let (data_at, data) = need(b"PDAT")?;
+        let (scale, position_error, entries) =
+            super::paged::directory(dir, data.len() as u64, |m| fail.invalid(m))?;
+        let cx = super::paged::PageContext {
+            path,
+            leaf_count: leaves,
+            node_count: nodes,
+            scale,
+            colors: flags & FLAG_NODE_COLORS != 0,
+        };
+        let (n, t, o) = super::paged::decode_all(&cx, &entries, data, data_at)?;
+        if t.len() != tris as usize {
+            return Err(fail.invalid(format!(
+                "the pages hold {} triangles, META says {tris}",
+                t.len()
+            )));
+        }
+        (n, t, o, position_error)
+    } else {
+        let (_, node_bytes) = need(b"NODE")?;
+        let (_, tri_bytes) = need(b"TRIS")?;
+        let (_, off_bytes) = need(b"VOFF")?;
+        want("NODE", node_bytes.len(), nodes as u64, NODE_LEN)?;
+        want("TRIS", tri_bytes.len(), tris as u64, 12)?;
+        want("VOFF", off_bytes.len(), (nodes - leaves) as u64 + 1, 4)?;
+        (
+            bytemuck::pod_collect_to_vec(node_bytes),
+            bytemuck::pod_collect_to_vec(tri_bytes),
+            bytemuck::pod_collect_to_vec(off_bytes),
+            0.0,
+        )
+    };
     let tree = VertexTree {
         leaf_count: leaves,
-        nodes: bytemuck::pod_collect_to_vec(node_bytes),
-        triangles: bytemuck::pod_collect_to_vec(tri_bytes),
-        vanish_offsets: bytemuck::pod_collect_to_vec(off_bytes),
+        nodes: node_list,
+        triangles,
+        vanish_offsets,
+        position_error,
         metric,
         has_colors: flags & FLAG_COLORS != 0,
         has_normals: flags & FLAG_NORMALS != 0,
@@ -286,6 +384,55 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
     }
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
+}
+
+/// The pages of a paged (version 4) file: each page's root and nodes, in file order; an empty
+/// list for an exact file. Each page is decoded and checked as [`read_bytes`] does.
+pub fn read_pages(bytes: &[u8], path: &Path) -> Result<Vec<super::PageNodes>, FormatError> {
+    let fail = Fail { path };
+    let (version, found) = sections(bytes, &fail)?;
+    if version < 4 {
+        return Ok(Vec::new());
+    }
+    let get = |tag: &[u8; 4]| {
+        found
+            .iter()
+            .find(|(t, _, _)| t == tag)
+            .map(|&(_, at, b)| (at, b))
+            .ok_or_else(|| {
+                fail.invalid(format!(
+                    "section {} is missing",
+                    String::from_utf8_lossy(tag)
+                ))
+            })
+    };
+    let (_, meta) = get(b"META")?;
+    let (_, dir) = get(b"PAGE")?;
+    let (data_at, data) = get(b"PDAT")?;
+    if meta.len() != META_LEN {
+        return Err(fail.invalid(format!("META is {} bytes, expected {META_LEN}", meta.len())));
+    }
+    let m = Cursor { bytes: meta };
+    let (scale, _, entries) = super::paged::directory(dir, data.len() as u64, |m| fail.invalid(m))?;
+    let cx = super::paged::PageContext {
+        path,
+        leaf_count: m.u32(0),
+        node_count: m.u32(4),
+        scale,
+        colors: m.u32(16) & FLAG_NODE_COLORS != 0,
+    };
+    entries
+        .iter()
+        .enumerate()
+        .map(|(p, e)| {
+            let body = &data[e.offset as usize..(e.offset + e.length as u64) as usize];
+            let page = super::paged::decode_page(&cx, p, e, body, data_at + e.offset)?;
+            Ok(super::PageNodes {
+                root: e.root,
+                nodes: page.ids,
+            })
+        })
+        .collect()
 }
 
 /// The WEDG section, its lengths checked (what its numbers mean is checked with the tree, by
@@ -444,14 +591,13 @@ impl Fail<'_> {
     }
 }
 
+/// A section: its tag, where its body starts in the file, and the body.
+type Section<'b> = ([u8; 4], u64, &'b [u8]);
+
 /// The header, the section table and the sections, each checked (magic, version, checksums, one
-/// section after another to the end of the file); returns the five known sections' bodies in
-/// [`SECTIONS`] order, and the optional ones' in [`OPTIONAL`] order.
-#[allow(clippy::type_complexity)]
-fn sections<'b>(
-    bytes: &'b [u8],
-    fail: &Fail,
-) -> Result<([&'b [u8]; 5], [Option<&'b [u8]>; 4]), FormatError> {
+/// section after another to the end of the file, no tag twice); returns the version and the
+/// sections in file order.
+fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<(u32, Vec<Section<'b>>), FormatError> {
     let len = bytes.len() as u64;
     if bytes.len() < HEADER || bytes[..8] != MAGIC {
         return Err(fail.at(
@@ -500,8 +646,7 @@ fn sections<'b>(
         ));
     }
     let mut expected = (table_end + 4) as u64;
-    let mut found: [Option<&[u8]>; 5] = [None; 5];
-    let mut optional: [Option<&[u8]>; 4] = [None; 4];
+    let mut found: Vec<Section> = Vec::with_capacity(count as usize);
     for i in 0..count as usize {
         let at = HEADER + i * TABLE_ENTRY;
         let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
@@ -527,24 +672,14 @@ fn sections<'b>(
                 format!("section {name} is corrupt (checksum mismatch)"),
             ));
         }
-        if let Some(k) = OPTIONAL.iter().position(|t| *t == tag) {
-            if optional[k].replace(body).is_some() {
-                return Err(fail.at(
-                    Some(at as u64),
-                    FormatErrorKind::Invalid,
-                    format!("section {name} appears twice"),
-                ));
-            }
-        } else if let Some(k) = SECTIONS.iter().position(|t| *t == tag) {
-            if found[k].is_some() {
-                return Err(fail.at(
-                    Some(at as u64),
-                    FormatErrorKind::Invalid,
-                    format!("section {name} appears twice"),
-                ));
-            }
-            found[k] = Some(body);
+        if found.iter().any(|(t, _, _)| *t == tag) {
+            return Err(fail.at(
+                Some(at as u64),
+                FormatErrorKind::Invalid,
+                format!("section {name} appears twice"),
+            ));
         }
+        found.push((tag, offset, body));
         expected = end;
     }
     if expected != len {
@@ -554,16 +689,7 @@ fn sections<'b>(
             format!("{} bytes after the last section", len - expected),
         ));
     }
-    let mut out: [&[u8]; 5] = [&[]; 5];
-    for (k, slot) in out.iter_mut().enumerate() {
-        *slot = found[k].ok_or_else(|| {
-            fail.invalid(format!(
-                "section {} is missing",
-                String::from_utf8_lossy(&SECTIONS[k])
-            ))
-        })?;
-    }
-    Ok((out, optional))
+    Ok((version, found))
 }
 
 /// The PART section: `count` parts, each a triangle count, a name length and a UTF-8 name.

@@ -14,14 +14,16 @@ mod build;
 mod check;
 mod extract;
 mod format;
+mod paged;
 
 pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build, build_partitioned, cells};
 pub use check::{TreeProblem, check, check_cut};
 pub use extract::{Cut, cut_at_bound, cut_at_error, cut_at_merges, cut_at_triangles};
 pub use format::{
-    FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, OLDEST_FORMAT_VERSION, read, read_bytes,
-    to_bytes, write,
+    Encoding, FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, OLDEST_FORMAT_VERSION, read,
+    read_bytes, read_pages, to_bytes, to_bytes_with, write, write_with,
 };
+pub use paged::PAGE_NODES;
 
 use crate::simplify::Metric;
 use bytemuck::{Pod, Zeroable};
@@ -64,6 +66,13 @@ impl Node {
     }
 }
 
+/// One page of a paged file (see [`Encoding::Paged`]): its root and its nodes, in increasing id.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PageNodes {
+    pub root: u32,
+    pub nodes: Vec<u32>,
+}
+
 /// A named part of the input scene (OBJ object or group), with its triangle count.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct PartInfo {
@@ -92,6 +101,11 @@ pub struct VertexTree {
     /// Per-corner appearance, when the input had texture coordinates or materials (see [`Wedges`]);
     /// `appearance` and `materials` then hold each node's first wedge's.
     pub wedges: Option<Wedges>,
+    /// How far any stored position may lie from where the builder put it: 0 for a tree as built
+    /// or read from an exact file, the quantisation's bound for one read from a paged file
+    /// (version 4). Every error and sphere already holds it; [`VertexTree::deviation_bounds`]
+    /// adds it.
+    pub position_error: f32,
 }
 
 /// Hugues Hoppe's wedges (*Efficient implementation of progressive meshes*, Computers & Graphics
@@ -217,14 +231,15 @@ impl VertexTree {
             let mut u = self.nodes[v as usize].parent;
             while u != NONE {
                 let node = &self.nodes[u as usize];
-                let d = p.distance(node.position()) * (1.0 + BOUND_SLACK);
+                let d =
+                    (p.distance(node.position()) + 2.0 * self.position_error) * (1.0 + BOUND_SLACK);
                 bits[u as usize].fetch_max(d.to_bits(), Ordering::Relaxed);
                 u = node.parent;
             }
         });
         let mut bound: Vec<f32> = bits
             .into_iter()
-            .map(|b| f32::from_bits(b.into_inner()))
+            .map(|b| f32::from_bits(b.into_inner()).max(self.position_error))
             .collect();
         // Children come before their parent in build order.
         for u in self.leaf_count as usize..self.nodes.len() {

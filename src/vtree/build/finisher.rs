@@ -232,6 +232,17 @@ impl<'a> Backlog<'a> {
         self.lock().1 = true;
         self.ready.notify_all();
     }
+
+    /// Closes the backlog, finishes here what the finisher has not started yet, then `last`
+    /// (in this order: with wedges, each batch waits for the ones before it).
+    pub(super) fn finish_last(&self, last: Job, view: &PassView, entries: &mut Vec<Entry>) {
+        self.close();
+        while let Some((batch, places)) = self.take() {
+            batch.finish(view, places, entries);
+        }
+        let (batch, places) = last;
+        batch.finish(view, places, entries);
+    }
 }
 
 impl FinishBatch {
@@ -478,13 +489,7 @@ impl Builder<'_> {
             let mut entries = Vec::new();
             let mut batch = FinishBatch::default();
             for (i, (&index, &cand)) in chosen.iter().zip(priced).enumerate() {
-                // The merges are scattered over the mesh: start loading the next ones' data.
-                for stage in 0..4 {
-                    if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
-                        let e = cands[next];
-                        self.prefetch_merge(e.a, e.b & SLOT, stage);
-                    }
-                }
+                self.prefetch_ahead(cands, chosen, i);
                 let e = &mut cands[index];
                 if self.defer_if_flips(e, &cand) {
                     continue;
@@ -514,15 +519,9 @@ impl Builder<'_> {
                     }
                 }
             }
-            // What the finisher has not started yet, finished here alongside it, then the last
-            // batch (in this order: with wedges, each batch waits for the ones before it).
-            backlog.close();
-            while let Some((batch, places)) = backlog.take() {
-                batch.finish(view, places, &mut entries);
-            }
             batch.ticket = tickets;
             let places = out.take(batch.nodes.len());
-            batch.finish(view, places, &mut entries);
+            backlog.finish_last((batch, places), view, &mut entries);
             if let Some(finisher) = finisher {
                 entries.extend(
                     finisher
@@ -549,6 +548,17 @@ impl Builder<'_> {
             early,
             survivors,
             priced_early,
+        }
+    }
+
+    /// Starts loading what the merges a few after the `i`-th chosen one read: they are scattered
+    /// over the mesh.
+    fn prefetch_ahead(&self, cands: &[Entry], chosen: &[usize], i: usize) {
+        for stage in 0..4 {
+            if let Some(&next) = chosen.get(i + (PREFETCH_AHEAD >> stage)) {
+                let e = cands[next];
+                self.prefetch_merge(e.a, e.b & SLOT, stage);
+            }
         }
     }
 

@@ -689,6 +689,7 @@ impl Builder<'_> {
             appearance: None,
             materials: None,
             wedges: None,
+            position_error: 0.0,
             parts: part_infos(mesh),
         };
         if let (Some((wedges, firsts)), Some(input)) = (wedges, input) {

@@ -64,6 +64,7 @@ impl Shared<'_> {
             appearance: None,
             materials: None,
             wedges: None,
+            position_error: 0.0,
             parts: part_infos(self.mesh),
         }
     }
