@@ -285,14 +285,14 @@ impl FinishBatch {
                 for q in m.pending.into_iter().filter(|&q| q != NONE) {
                     crate::prefetch(&view.leaves[q as usize]);
                 }
-                prefetch_end(view.ends, view.colors, m.slot as usize);
-                prefetch_end(view.ends, view.colors, m.gone as usize);
+                prefetch_end(view.ends, view.colors, view.charts, m.slot as usize);
+                prefetch_end(view.ends, view.colors, view.charts, m.gone as usize);
             }
             if let Some(&end) = self.fan_ends.get(i + PREFETCH_AHEAD / 2) {
                 let start = self.fan_ends[i + PREFETCH_AHEAD / 2 - 1];
                 for t in &self.fans[start as usize..end as usize] {
                     for v in t.slots {
-                        prefetch_end(view.ends, view.colors, v as usize);
+                        prefetch_end(view.ends, view.colors, view.charts, v as usize);
                     }
                 }
             }

@@ -132,7 +132,7 @@ impl Builder<'_> {
                     if let Some(&ahead) = run.get(i + PREFETCH_AHEAD / 2) {
                         let e = cands[ahead];
                         for s in [e.a as usize, (e.b & SLOT) as usize] {
-                            super::pricing::prefetch_end(&self.ends, &self.colors, s);
+                            super::pricing::prefetch_end(&self.ends, &self.colors, &self.charts, s);
                         }
                     }
                     let e = cands[index];
