@@ -300,7 +300,7 @@ fn paged_round_trip_keeps_links_and_widens_every_bound() {
             glam::Vec3::from_slice(&b.sphere),
         );
         assert!(
-            ca.distance(cb) + a.sphere[3] + back.position_error <= b.sphere[3] * (1.0 + 1e-6),
+            ca.distance(cb) + a.sphere[3] <= b.sphere[3] * (1.0 + 1e-6),
             "node {u}: sphere {:?} does not hold {:?}",
             b.sphere,
             a.sphere
@@ -323,15 +323,25 @@ fn paged_round_trip_keeps_links_and_widens_every_bound() {
             assert!(angle(n, glam::Vec3::from_array(b.normal)) < 0.1f32.to_radians());
         }
     }
-    // The strict bound still bounds the distance to the input's (the built tree's) leaves.
+    // The strict bound still bounds the distance to the input's (the built tree's) leaves, and
+    // every stored sphere holds every stored position of its subtree.
     let bounds = back.deviation_bounds();
     for v in 0..tree.leaf_count {
-        let p = tree.nodes[v as usize].position();
+        let (p, stored) = (
+            tree.nodes[v as usize].position(),
+            back.nodes[v as usize].position(),
+        );
         let mut u = v;
         while u != vtree::NONE {
-            let d = p.distance(back.nodes[u as usize].position());
+            let node = &back.nodes[u as usize];
+            let d = p.distance(node.position());
             assert!(d <= bounds[u as usize], "leaf {v} at {d} from node {u}");
-            u = back.nodes[u as usize].parent;
+            let reach = stored.distance(glam::Vec3::from_slice(&node.sphere));
+            assert!(
+                reach <= node.sphere[3] * (1.0 + 1e-5),
+                "leaf {v} outside node {u}'s sphere"
+            );
+            u = node.parent;
         }
     }
     // About a third of the exact file.

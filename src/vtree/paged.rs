@@ -6,8 +6,8 @@
 //! Inside a page every number is small: positions and sphere centres as 16-bit fractions of the
 //! page's box, normals and cone axes octahedral, errors and radii in a 16-bit float rounded up,
 //! ids and triangle corners as variable-length differences. Nothing promised gets weaker: every
-//! error grows by how far its page moved its positions, every sphere by how far any position
-//! moved, every cone by how far its axis turned; the file states the largest position error, and
+//! error grows by how far its page moved its positions, every sphere by how far any position of
+//! its subtree moved, every cone by how far its axis turned; the file states the largest position error, and
 //! the strict bound adds it (see [`VertexTree::position_error`]).
 //!
 //! The cut is Kundu and Misra's greedy (*A linear tree partitioning algorithm*, SIAM J. Computing
@@ -126,24 +126,27 @@ pub fn scale_for(x: f32) -> f32 {
 struct Grid {
     lo: Vec3,
     step: Vec3,
+    /// `1 / step` (0 where the step is): the writer's, to multiply instead of divide.
+    inverse: Vec3,
 }
 
 impl Grid {
     fn new(lo: Vec3, hi: Vec3) -> Grid {
+        let step = (hi - lo) / 65535.0;
         Grid {
             lo,
-            step: (hi - lo) / 65535.0,
+            step,
+            inverse: step
+                .to_array()
+                .map(|s| if s > 0.0 { 1.0 / s } else { 0.0 })
+                .into(),
         }
     }
+    /// The nearest code (give or take a rounding: [`Grid::decode`] of it is what is stored).
     fn encode(&self, p: Vec3) -> [u16; 3] {
-        let q = (p - self.lo) / self.step;
-        std::array::from_fn(|k| {
-            if self.step[k] > 0.0 {
-                q[k].round().clamp(0.0, 65535.0) as u16
-            } else {
-                0
-            }
-        })
+        ((p - self.lo) * self.inverse)
+            .to_array()
+            .map(|q| q.round_ties_even().clamp(0.0, 65535.0) as u16)
     }
     fn decode(&self, c: [u16; 3]) -> Vec3 {
         self.lo + Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * self.step
@@ -192,9 +195,20 @@ fn oct_decode(c: [u16; 2], bits: u32) -> Vec3 {
 /// Whether any node's colour differs from white as stored (a build blends white into
 /// not-quite-white, which the pages need not store).
 pub fn any_color(tree: &VertexTree) -> bool {
+    // The least linear value stored as 255 (`srgb8` rises with its argument): a comparison a
+    // channel instead of a power.
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if srgb8(mid) == 255 {
+            hi = mid
+        } else {
+            lo = mid
+        }
+    }
     tree.nodes
         .par_iter()
-        .any(|n| n.color.map(srgb8) != [255; 3])
+        .any(|n| n.color.iter().any(|&c| c.is_nan() || c < hi) && n.color.map(srgb8) != [255; 3])
 }
 
 /// Cone cosines as a byte, rounded down (a wider cone): 0 is −1, every direction.
@@ -252,7 +266,9 @@ fn store_sphere(
     let code = |r: f32| encode_scaled_up(r, scale).expect("radii lie within 2^8 of the extent");
     // The offset is in units of the radius it is stored with: try, and grow the radius until the
     // sphere holds; a centre at the position itself always does.
-    let mut guess = code(need(center).max(center.distance(position)));
+    // An offset rounds by at most half a 127th of the radius on each axis: a guess that holds
+    // that much more settles in one step.
+    let mut guess = code(need(center).max(center.distance(position)) * (1.0 + 0.0075));
     for _ in 0..8 {
         let r = decode_scaled(guess, scale);
         if r <= 0.0 {
@@ -281,95 +297,41 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
     for u in 0..n as u32 {
         members[page_of[u as usize] as usize].push(u);
     }
-    // Each page's grid, over its positions.
-    let grids: Vec<Grid> = members
-        .par_iter()
-        .map(|m| {
-            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            for &u in m {
-                let p = tree.nodes[u as usize].position();
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-            Grid::new(lo, hi)
-        })
-        .collect();
-    let positions: Vec<Vec3> = (0..n)
-        .into_par_iter()
-        .map(|u| {
-            let g = &grids[page_of[u] as usize];
-            g.decode(g.encode(tree.nodes[u].position()))
-        })
-        .collect();
-    // Each page's position error, and the largest.
-    let mut page_error = vec![0f32; roots.len()];
-    for u in 0..n {
-        let d = positions[u].distance(tree.nodes[u].position());
-        let p = page_of[u] as usize;
-        page_error[p] = page_error[p].max(d);
-    }
-    let page_error: Vec<f32> = page_error
-        .into_iter()
-        .map(|d| {
-            if d > 0.0 {
-                (d * (1.0 + 1e-5)).next_up()
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let position_error = page_error.iter().copied().fold(0.0, f32::max);
-    // Errors and spheres, children first: grown by what quantising moved, rounded up, and never
-    // below a child's.
-    let mut error_code = vec![0u16; n];
-    let mut spheres = vec![([0i8; 3], 0u16); n];
-    let stored_sphere = |u: usize, spheres: &[([i8; 3], u16)]| {
-        let (offset, code) = spheres[u];
-        let r = decode_scaled(code, scale);
-        (sphere_center(positions[u], offset, r), r)
+    // Children first, a page at a time: its grid and positions, then each node's error and
+    // sphere, grown by what quantising moved, rounded up and never below a child's; then the
+    // page's bytes. Pages in waves, each page's child pages in earlier waves: a wave's pages on
+    // every core, each page's scattered nodes read into cache once for all three.
+    let mut done = Done {
+        spheres: vec![([0i8; 3], 0u16); n],
+        errors: vec![0u16; n],
+        positions: vec![Vec3::ZERO; n],
+        moved: vec![0f32; n],
+        page_error: vec![0f32; roots.len()],
     };
-    for u in 0..n {
-        let node = &tree.nodes[u];
-        let mut e = if node.is_leaf() {
-            page_error[page_of[u] as usize]
-        } else {
-            node.error + page_error[page_of[u] as usize]
-        };
-        let mut children = Vec::with_capacity(2);
-        if !node.is_leaf() {
-            for c in node.children {
-                let c = c as usize;
-                let child_e = if tree.nodes[c].is_leaf() {
-                    page_error[page_of[c] as usize]
-                } else {
-                    decode_scaled(error_code[c], scale)
-                };
-                e = e.max(child_e);
-                children.push(stored_sphere(c, &spheres));
+    let mut bodies: Vec<Vec<u8>> = vec![Vec::new(); roots.len()];
+    for wave in waves(tree, &members, &page_of) {
+        let pages: Vec<(usize, Codes, Vec<u8>)> = wave
+            .par_iter()
+            .map(|&p| {
+                let page = PageWriter::new(tree, &members[p], p as u32, &page_of, scale, colors);
+                let codes = page.codes(&done);
+                let body = page.write(&codes);
+                (p, codes, body)
+            })
+            .collect();
+        for (p, codes, body) in pages {
+            for (k, &u) in members[p].iter().enumerate() {
+                let u = u as usize;
+                done.spheres[u] = codes.spheres[k];
+                done.errors[u] = codes.errors[k];
+                done.positions[u] = codes.positions[k];
+                done.moved[u] = codes.moved[k];
             }
+            done.page_error[p] = codes.page_error;
+            bodies[p] = body;
         }
-        let sphere = (Vec3::from_slice(&node.sphere), node.sphere[3]);
-        spheres[u] = store_sphere(positions[u], sphere, position_error, &children, scale);
-        error_code[u] = encode_scaled_up(e, scale).expect("errors lie within 2^8 of the extent");
     }
-    let bodies: Vec<Vec<u8>> = members
-        .par_iter()
-        .enumerate()
-        .map(|(p, m)| {
-            let page = PageWriter {
-                tree,
-                ids: m,
-                page: p as u32,
-                page_of: &page_of,
-                grid: grids[p],
-                error: page_error[p],
-                error_code: &error_code,
-                spheres: &spheres,
-                colors,
-            };
-            page.write()
-        })
-        .collect();
+    let position_error = done.page_error.iter().copied().fold(0.0, f32::max);
     let mut directory = Vec::with_capacity(4 + roots.len() * DIRECTORY_ENTRY);
     directory.extend_from_slice(&(roots.len() as u32).to_le_bytes());
     directory.extend_from_slice(&scale.to_le_bytes());
@@ -402,14 +364,168 @@ struct PageWriter<'a> {
     ids: &'a [u32],
     page: u32,
     page_of: &'a [u32],
+    /// The page's grid, over its nodes' positions.
     grid: Grid,
-    error: f32,
-    error_code: &'a [u16],
-    spheres: &'a [([i8; 3], u16)],
+    scale: f32,
     colors: bool,
 }
 
-impl PageWriter<'_> {
+/// What the pages of earlier waves left, per node (and per page).
+struct Done {
+    spheres: Vec<([i8; 3], u16)>,
+    errors: Vec<u16>,
+    /// Positions as stored.
+    positions: Vec<Vec3>,
+    /// How far any stored position of the node's subtree lies from the tree's.
+    moved: Vec<f32>,
+    /// Each page's position error.
+    page_error: Vec<f32>,
+}
+
+/// A page's nodes' codes and stored positions, in the page's order, and its position error.
+struct Codes {
+    errors: Vec<u16>,
+    spheres: Vec<([i8; 3], u16)>,
+    positions: Vec<Vec3>,
+    moved: Vec<f32>,
+    page_error: f32,
+}
+
+/// The pages in waves: each page after every page below it (its child pages have smaller
+/// numbers, so one pass in order finds each page's height).
+fn waves(tree: &VertexTree, members: &[Vec<u32>], page_of: &[u32]) -> Vec<Vec<usize>> {
+    let mut height = vec![0usize; members.len()];
+    for (p, m) in members.iter().enumerate() {
+        for &u in m {
+            for c in tree.nodes[u as usize].children {
+                if c != NONE && page_of[c as usize] as usize != p {
+                    height[p] = height[p].max(height[page_of[c as usize] as usize] + 1);
+                }
+            }
+        }
+    }
+    let mut out = vec![Vec::new(); height.iter().max().map_or(0, |h| h + 1)];
+    for (p, &h) in height.iter().enumerate() {
+        out[h].push(p);
+    }
+    out
+}
+
+impl<'a> PageWriter<'a> {
+    fn new(
+        tree: &'a VertexTree,
+        ids: &'a [u32],
+        page: u32,
+        page_of: &'a [u32],
+        scale: f32,
+        colors: bool,
+    ) -> PageWriter<'a> {
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for (k, &u) in ids.iter().enumerate() {
+            if let Some(&ahead) = ids.get(k + 8) {
+                crate::prefetch(&tree.nodes[ahead as usize]);
+            }
+            let p = tree.nodes[u as usize].position();
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        PageWriter {
+            tree,
+            ids,
+            page,
+            page_of,
+            grid: Grid::new(lo, hi),
+            scale,
+            colors,
+        }
+    }
+
+    /// The page's nodes' codes, children first (ids increase): a child in this page from this
+    /// page's codes so far, one in a child page from what earlier waves left (`done`).
+    fn codes(&self, done: &Done) -> Codes {
+        let (tree, scale, leaves) = (self.tree, self.scale, self.tree.leaf_count);
+        let positions: Vec<Vec3> = self
+            .ids
+            .iter()
+            .map(|&u| {
+                self.grid
+                    .decode(self.grid.encode(tree.nodes[u as usize].position()))
+            })
+            .collect();
+        let moved = self
+            .ids
+            .iter()
+            .zip(&positions)
+            .map(|(&u, p)| p.distance(tree.nodes[u as usize].position()))
+            .fold(0.0f32, f32::max);
+        let page_error = if moved > 0.0 {
+            (moved * (1.0 + 1e-5)).next_up()
+        } else {
+            0.0
+        };
+        let mut codes = Codes {
+            errors: Vec::with_capacity(self.ids.len()),
+            spheres: Vec::with_capacity(self.ids.len()),
+            positions,
+            moved: Vec::with_capacity(self.ids.len()),
+            page_error,
+        };
+        for (k, &u) in self.ids.iter().enumerate() {
+            let node = &tree.nodes[u as usize];
+            let sphere = (Vec3::from_slice(&node.sphere), node.sphere[3]);
+            let position = codes.positions[k];
+            if u < leaves {
+                let stored = store_sphere(position, sphere, page_error, &[], scale);
+                codes.spheres.push(stored);
+                codes.errors.push(0);
+                codes.moved.push(page_error);
+                continue;
+            }
+            let mut e = node.error + page_error;
+            let mut below = page_error;
+            let children = node.children.map(|c| {
+                let (error, (offset, code), at, moved) = match self.ids[..k].binary_search(&c) {
+                    Ok(j) => (
+                        codes.errors[j],
+                        codes.spheres[j],
+                        codes.positions[j],
+                        codes.moved[j],
+                    ),
+                    Err(_) => {
+                        let c = c as usize;
+                        (
+                            done.errors[c],
+                            done.spheres[c],
+                            done.positions[c],
+                            done.moved[c],
+                        )
+                    }
+                };
+                e = e.max(if c < leaves {
+                    let p = self.page_of[c as usize];
+                    if p == self.page {
+                        page_error
+                    } else {
+                        done.page_error[p as usize]
+                    }
+                } else {
+                    decode_scaled(error, scale)
+                });
+                below = below.max(moved);
+                let r = decode_scaled(code, scale);
+                (sphere_center(at, offset, r), r)
+            });
+            codes
+                .spheres
+                .push(store_sphere(position, sphere, below, &children, scale));
+            codes.moved.push(below);
+            codes
+                .errors
+                .push(encode_scaled_up(e, scale).expect("errors lie within 2^8 of the extent"));
+        }
+        codes
+    }
+
     /// A page: its grid (lo, step as f32 × 3 each) and position error (f32), then per node in
     /// increasing id: the id's difference from the previous (varint), position (u16 × 3), sphere
     /// centre's offset from it (i8 × 3, in 127ths of the radius), radius (u16), normal (two 12-bit
@@ -420,7 +536,7 @@ impl PageWriter<'_> {
     /// child page's root), its triangle count (varint) and its triangles (varints: the first
     /// corner's difference from the page's previous first corner, the others' from the first,
     /// zigzagged).
-    fn write(&self) -> Vec<u8> {
+    fn write(&self, codes: &Codes) -> Vec<u8> {
         let tree = self.tree;
         let mut out = Vec::with_capacity(self.ids.len() * 28);
         for x in [self.grid.lo, self.grid.step] {
@@ -428,17 +544,28 @@ impl PageWriter<'_> {
                 out.extend_from_slice(&x[k].to_le_bytes());
             }
         }
-        out.extend_from_slice(&self.error.to_le_bytes());
+        out.extend_from_slice(&codes.page_error.to_le_bytes());
         let local = |id: u32| self.ids.binary_search(&id).ok();
         let (mut previous, mut first_corner) = (0u64, 0i64);
-        for &u in self.ids {
+        let leaves = tree.leaf_count;
+        for (k, &u) in self.ids.iter().enumerate() {
+            // The nodes' triangles are scattered: ask for their offsets, then for them, ahead.
+            if let Some(&ahead) = self.ids.get(k + 16).filter(|&&a| a >= leaves) {
+                crate::prefetch(&tree.vanish_offsets[(ahead - leaves) as usize]);
+            }
+            if let Some(&ahead) = self.ids.get(k + 8).filter(|&&a| a >= leaves) {
+                let start = tree.vanish_offsets[(ahead - leaves) as usize] as usize;
+                if let Some(t) = tree.triangles.get(start) {
+                    crate::prefetch(t);
+                }
+            }
             let node = &tree.nodes[u as usize];
             put_varint(&mut out, u as u64 - previous);
             previous = u as u64;
             for c in self.grid.encode(node.position()) {
                 out.extend_from_slice(&c.to_le_bytes());
             }
-            let (offset, radius) = self.spheres[u as usize];
+            let (offset, radius) = codes.spheres[k];
             out.extend(offset.map(|o| o as u8));
             out.extend_from_slice(&radius.to_le_bytes());
             let [a, b] = oct_encode(Vec3::from_array(node.normal), NORMAL_BITS);
@@ -452,7 +579,7 @@ impl PageWriter<'_> {
             if node.is_leaf() {
                 continue;
             }
-            out.extend_from_slice(&self.error_code[u as usize].to_le_bytes());
+            out.extend_from_slice(&codes.errors[k].to_le_bytes());
             for c in node.children {
                 match local(c).filter(|_| self.page_of[c as usize] == self.page) {
                     Some(i) => put_varint(&mut out, 2 * i as u64),
@@ -594,6 +721,7 @@ pub fn decode_page(
     let grid = Grid {
         lo: Vec3::new(v[0], v[1], v[2]),
         step: Vec3::new(v[3], v[4], v[5]),
+        inverse: Vec3::ZERO,
     };
     let leaf_error = v[6];
     let count = entry.nodes as usize;
