@@ -266,9 +266,7 @@ fn store_sphere(
     let code = |r: f32| encode_scaled_up(r, scale).expect("radii lie within 2^8 of the extent");
     // The offset is in units of the radius it is stored with: try, and grow the radius until the
     // sphere holds; a centre at the position itself always does.
-    // An offset rounds by at most half a 127th of the radius on each axis: a guess that holds
-    // that much more settles in one step.
-    let mut guess = code(need(center).max(center.distance(position)) * (1.0 + 0.0075));
+    let mut guess = code(need(center).max(center.distance(position)));
     for _ in 0..8 {
         let r = decode_scaled(guess, scale);
         if r <= 0.0 {
