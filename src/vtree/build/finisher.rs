@@ -9,7 +9,7 @@ use super::wedges::WedgeState;
 use super::{Builder, NONE};
 use crate::simplify::attribute_quadric::LocalAttributeQuadric;
 use crate::simplify::collapse::gather_neighbors;
-use crate::simplify::collapse::{Collapser, Neighbor};
+use crate::simplify::collapse::{Collapser, Neighbor, Vanish};
 use crate::simplify::metric::{Candidate, PairEnd, Pricing};
 use crate::vtree::Node;
 use glam::Vec3;
@@ -30,8 +30,10 @@ pub(super) struct FinishBatch {
     /// With wedges, the triangles that vanished in each merge, likewise (see [`WedgeTurns`]).
     pub(super) vanished: Vec<u32>,
     pub(super) vanished_ends: Vec<u32>,
-    /// With wedges, each merge's node.
+    /// With wedges, each merge's node, and whether a triangle that vanished in it was degenerate
+    /// (see [`WedgeState::merge`]).
     pub(super) ids: Vec<u32>,
+    pub(super) joined: Vec<bool>,
     /// This batch's place in the pass's order of batches.
     pub(super) ticket: u64,
 }
@@ -118,6 +120,7 @@ impl WedgeTurns {
                 batch.ids[i],
                 merged.position,
                 batch.vanished[start..end].iter().copied(),
+                batch.joined[i],
             ));
             start = end;
         }
@@ -256,7 +259,10 @@ impl FinishBatch {
 
     /// With wedges, what joining merge `u`'s wedges reads besides its [`Merged`]: the triangles
     /// that vanished in it (see [`WedgeTurns`]).
-    pub(super) fn push_vanished(&mut self, u: u32, vanished: impl Iterator<Item = u32>) {
+    pub(super) fn push_vanished(&mut self, u: u32, removed: &[(u32, Vanish)]) {
+        let vanished = removed.iter().map(|&(f, _)| f);
+        self.joined
+            .push(removed.iter().any(|&(_, v)| v == Vanish::Degenerate));
         self.ids.push(u);
         self.vanished.extend(vanished);
         self.vanished_ends.push(self.vanished.len() as u32);
@@ -378,6 +384,7 @@ impl FinishBatch {
         self.vanished.clear();
         self.vanished_ends.clear();
         self.ids.clear();
+        self.joined.clear();
         self
     }
 }
@@ -499,7 +506,7 @@ impl Builder<'_> {
                 let u = (first_new + survivors.len()) as u32;
                 let (node, merged) = self.merge_topology(a, b, &cand, u, pending);
                 if view.wedges.is_some() {
-                    batch.push_vanished(u, self.removed.iter().map(|&(f, _)| f));
+                    batch.push_vanished(u, &self.removed);
                 }
                 changed.insert(a);
                 changed.insert(b);

@@ -240,6 +240,9 @@ impl Builder<'_> {
                 u,
                 merged.position,
                 removed.iter().map(|&(f, _)| f),
+                removed
+                    .iter()
+                    .any(|&(_, v)| v == crate::simplify::collapse::Vanish::Degenerate),
             )
         })
     }
