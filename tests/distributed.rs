@@ -102,6 +102,22 @@ fn steps_make_the_one_process_tree() {
         info.contains("every cut of the build order is a valid mesh"),
         "{info}"
     );
+    // `--exact` on both sides: the f32 layout (version 1), again the same bytes.
+    let exact = tmp("joined-exact.vtree");
+    ok(&vunify(&["join", s(&dir), "-o", s(&exact), "--exact"]));
+    let whole = tmp("whole-exact.vtree");
+    ok(&vunify(&[
+        "build",
+        CESSNA,
+        "-o",
+        s(&whole),
+        "--cell-triangles",
+        CELL,
+        "--exact",
+    ]));
+    let bytes = std::fs::read(&exact).unwrap();
+    assert_eq!(bytes[8], 1);
+    assert_eq!(bytes, std::fs::read(&whole).unwrap());
 }
 
 /// The join refuses a missing cell, a corrupt one (a flipped byte), a truncated one, another
