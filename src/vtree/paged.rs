@@ -121,6 +121,12 @@ pub fn scale_for(x: f32) -> f32 {
     2f32.powi(e)
 }
 
+/// `x` (≥ 0; anything below is 0, NaN too) to the nearest integer, halves up, saturating: a
+/// conversion, where `f32::round` is a call into libm on the baseline x86-64 target.
+fn nearest(x: f32) -> u32 {
+    (x + 0.5) as u32
+}
+
 /// A page's box and how a 16-bit coordinate maps into it.
 #[derive(Clone, Copy)]
 struct Grid {
@@ -146,7 +152,7 @@ impl Grid {
     fn encode(&self, p: Vec3) -> [u16; 3] {
         ((p - self.lo) * self.inverse)
             .to_array()
-            .map(|q| q.round_ties_even().clamp(0.0, 65535.0) as u16)
+            .map(|q| nearest(q).min(65535) as u16)
     }
     fn decode(&self, c: [u16; 3]) -> Vec3 {
         self.lo + Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * self.step
@@ -168,7 +174,7 @@ fn oct_encode(v: Vec3, bits: u32) -> [u16; 2] {
         p
     };
     // Code 0 (both) stands for zero: the grid starts at 1.
-    let q = |x: f32| (((x * 0.5 + 0.5) * (max - 1.0)).round() + 1.0).clamp(1.0, max) as u16;
+    let q = |x: f32| (nearest((x * 0.5 + 0.5) * (max - 1.0)) + 1).min(max as u32) as u16;
     [q(p.x), q(p.y)]
 }
 
@@ -274,7 +280,7 @@ fn store_sphere(
         }
         let offset = ((center - position) / r * 127.0)
             .to_array()
-            .map(|x| x.round().clamp(-127.0, 127.0) as i8);
+            .map(|x| (nearest(x + 127.0) as i32 - 127).clamp(-127, 127) as i8);
         let c = sphere_center(position, offset, r);
         let want = code(need(c));
         if want <= guess {
