@@ -13,6 +13,18 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 source scripts/deps.sh
+# /dev/null must be the device: a program that once renamed a file over it (as root) leaves a
+# regular file that collects every discarded output, and rustc then reads that garbage as source
+# when cargo probes it. Put the device back (root), or say what is wrong.
+if [ ! -c /dev/null ]; then
+  if [ "$(id -u)" = 0 ]; then
+    echo "scripts/test.sh: /dev/null is not a device (something replaced it); restoring it" >&2
+    rm -f /dev/null && mknod -m 666 /dev/null c 1 3
+  else
+    echo "scripts/test.sh: /dev/null is not a device; ask an administrator to restore it" >&2
+    exit 1
+  fi
+fi
 ensure_packages "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}" xvfb
 # The Khronos glTF Validator (npm), which the tests run on every glTF file vunify writes.
 command -v npm >/dev/null || ensure_packages nodejs npm

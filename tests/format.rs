@@ -154,6 +154,39 @@ fn writes_are_atomic_and_leave_no_temporary_files() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// An output that is not a file (a named pipe here; `/dev/null` in use) is written into, never
+/// replaced by a renamed file: as root, `-o /dev/null` once replaced the device with a file.
+#[cfg(unix)]
+#[test]
+fn writes_into_a_pipe_or_device_keep_it_what_it_is() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = std::env::temp_dir().join(format!("vunify-fifo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let fifo = dir.join("out.vtree");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("no mkfifo here; skipping the named-pipe half");
+    } else {
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        let tree = small_tree();
+        vtree::write(&tree, &fifo).unwrap();
+        let bytes = reader.join().unwrap();
+        assert_eq!(vtree::read_bytes(&bytes, &fifo).unwrap(), tree);
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+    }
+    // The device itself: still a character device afterwards, whoever runs the test.
+    vunify::export::write_atomic(Path::new("/dev/null"), b"nothing").unwrap();
+    let null = std::fs::metadata("/dev/null").unwrap();
+    assert!(null.file_type().is_char_device(), "/dev/null was replaced");
+    // A folder is refused, not replaced.
+    assert!(vunify::export::write_atomic(&dir, b"x").is_err());
+    assert!(dir.is_dir());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 

@@ -10,7 +10,9 @@ use std::path::Path;
 
 /// Writes `bytes` to `path` through a temporary file in the same directory and a rename, so a crash
 /// never leaves a half-written file. Temporary files for `path` that a killed process left behind
-/// (`.NAME.tmp-PID` of a process no longer running) are removed first.
+/// (`.NAME.tmp-PID` of a process no longer running) are removed first. A `path` that is not a file
+/// (`/dev/null`, `/dev/stdout`, a named pipe) is written in place: renaming over it would replace
+/// the device with a file, and for root that would break `/dev/null` for every program after.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     write_atomic_checked(path, |out| out.write_all(bytes), || Ok(()))
 }
@@ -24,6 +26,16 @@ pub fn write_atomic_checked(
     write: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()> + Send,
     check: impl FnOnce() -> std::io::Result<()> + Send,
 ) -> std::io::Result<()> {
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.is_dir() {
+            return Err(std::io::Error::other("the output path is a folder"));
+        }
+        if !meta.is_file() {
+            check()?;
+            let mut f = std::fs::OpenOptions::new().write(true).open(path)?;
+            return write(&mut f).and_then(|()| f.flush());
+        }
+    }
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
