@@ -22,6 +22,7 @@ struct VertexIn {
     @location(2) color: vec4<f32>,    // unorm8x4
     @location(3) debug: vec2<f32>,    // (object-space error, depth)
     @location(4) uv_texture: vec4<f32>, // texture coordinates, the texture's layer and the material (-1: none)
+    @location(5) tint: vec4<f32>,     // unorm8x4: what the texture is multiplied by (glTF COLOR_0)
 }
 
 struct VertexOut {
@@ -34,6 +35,7 @@ struct VertexOut {
     // coarse node joins two).
     @location(4) @interpolate(flat) layer: i32,
     @location(5) @interpolate(flat) material: i32,
+    @location(6) tint: vec3<f32>,
 }
 
 // A 4 × 4 ordered-dither threshold at a pixel: blended surfaces are drawn as a screen door (as
@@ -83,6 +85,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.uv = v.uv_texture.xy;
     out.layer = i32(round(v.uv_texture.z));
     out.material = i32(round(v.uv_texture.w));
+    out.tint = v.tint.rgb;
     switch g.modes.x {
         case 1u: { out.color = vec4<f32>(v.color.rgb, 1.0); }
         // Baked: 8-bit display colours are sRGB-encoded; decoded here, the sRGB target re-encodes
@@ -116,7 +119,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
         let texel = textureSample(textures, texture_sampler, in.uv, max(in.layer, 0));
         var alpha = 1.0;
         if (in.layer >= 0) {
-            base = texel.rgb;
+            base = texel.rgb * in.tint;
             alpha = texel.a;
         }
         // The material: its factor times the texture (an untextured vertex's colour has it

@@ -370,6 +370,76 @@ fn materials_and_textures_round_trip() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// [`two_materials`] with its textured triangle's `COLOR_0` a tint: (0.25, 1, 0.5) at corner 0,
+/// white at 1 and 2 (its colours, the red texture's mean times the tint, say so too).
+fn tinted() -> vunify::mesh::Mesh {
+    let mut m = two_materials();
+    let tint = Vec3::new(0.25, 1.0, 0.5);
+    m.tints = Some(vec![
+        tint,
+        Vec3::ONE,
+        Vec3::ONE,
+        Vec3::ONE,
+        Vec3::ONE,
+        Vec3::ONE,
+    ]);
+    m.colors.as_mut().unwrap()[0] *= tint;
+    m.materials[0].vertex_colors = true;
+    m
+}
+
+/// glTF's `COLOR_0` on a textured primitive tints the texture: it is read as the tint, kept per
+/// wedge by the tree (in both encodings of the file), and written back as `COLOR_0` by every
+/// level that `extract` makes.
+#[test]
+fn texture_tints_go_through_the_tree() {
+    let dir = std::env::temp_dir().join(format!("vunify-gltf-tint-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let m = tinted();
+    let file = dir.join("t.glb");
+    vunify::export::write_mesh(&m, &file).unwrap();
+    let back = parse(&std::fs::read(&file).unwrap(), Format::Gltf, &file).unwrap();
+    let tints = back.tints.as_ref().expect("a tinted texture has tints");
+    let of = back.material_of.as_ref().unwrap();
+    let leaf = back.triangles[0].map(|v| v as usize);
+    assert_eq!(back.materials[of[leaf[0]] as usize].name, "leaf");
+    let want = m.tints.as_ref().unwrap();
+    for (k, &v) in leaf.iter().enumerate() {
+        assert!(
+            tints[v].distance(want[k]) < 1e-2,
+            "corner {k}: {}",
+            tints[v]
+        );
+    }
+    // Untextured vertices are white: their colours have their COLOR_0.
+    let paint = back.triangles[1].map(|v| v as usize);
+    assert!(paint.iter().all(|&v| tints[v] == Vec3::ONE));
+
+    let (tree, _) = vunify::vtree::build(
+        &back,
+        &vunify::vtree::BuildOptions::default(),
+        &mut |_, _| {},
+    )
+    .unwrap();
+    let w = tree.wedges.as_ref().expect("a textured tree has wedges");
+    assert_eq!(w.tint.len(), w.len());
+    for bytes in [
+        vunify::vtree::to_bytes(&tree),
+        vunify::vtree::to_bytes_with(&tree, vunify::vtree::Encoding::Exact),
+    ] {
+        let read = vunify::vtree::read_bytes(&bytes, Path::new("t.vtree")).unwrap();
+        assert_eq!(read.wedges.as_ref().unwrap().tint, w.tint);
+    }
+    let full = vunify::vtree::cut_at_triangles(&tree, 2).mesh;
+    let out = dir.join("full.glb");
+    vunify::export::write_mesh(&full, &out).unwrap();
+    let again = parse(&std::fs::read(&out).unwrap(), Format::Gltf, &out).unwrap();
+    let tints = again.tints.as_ref().expect("the level keeps its tints");
+    let darkest = tints.iter().fold(Vec3::ONE, |a, &t| a.min(t));
+    assert!(darkest.distance(want[0]) < 1e-2, "{darkest}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `.glb` and `.gltf` (+ `.bin`) written by vunify read back as they were, and `.gltf.xz` is
 /// refused rather than half-written.
 #[test]
@@ -420,6 +490,7 @@ fn gltf_output_validates() {
         ..square()
     });
     meshes.push(two_materials());
+    meshes.push(tinted());
     // Static levels of the shared textured models, materials and maps carried.
     if let Some(models) = models_dir() {
         for file in [

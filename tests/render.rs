@@ -814,6 +814,38 @@ fn materials_are_drawn() {
     }
 }
 
+/// A vertex colour over a texture tints it (glTF: base colour = factor × texture × `COLOR_0`):
+/// the upper rows of the grid, tinted (0.25, 1, 1), draw a darker red than the lower, untinted
+/// ones, and the blue half keeps its blue.
+#[test]
+fn vertex_colours_tint_textures() {
+    let Some(gpu) = gpu() else { return };
+    let mut m = textured_grid();
+    m.tints = Some(
+        m.positions
+            .iter()
+            .map(|p| {
+                if p.y > 0.6 {
+                    Vec3::new(0.25, 1.0, 1.0)
+                } else {
+                    Vec3::ONE
+                }
+            })
+            .collect(),
+    );
+    let tree = tree_of(&m);
+    assert!(tree.wedges.as_ref().is_some_and(|w| !w.tint.is_empty()));
+    let image = draw_textured(&gpu, &m, &grid_camera(1.2));
+    let (upper, lower) = (image.get_pixel(60, 40).0, image.get_pixel(60, 160).0);
+    assert!(is_red(upper) && is_red(lower), "{upper:?} {lower:?}");
+    assert!(
+        (upper[0] as f32) < 0.75 * lower[0] as f32,
+        "tinted {upper:?}, plain {lower:?}"
+    );
+    let blue = image.get_pixel(140, 40).0;
+    assert!(blue[2] > 3 * blue[0].max(10), "{blue:?}");
+}
+
 /// Seen from behind, a single-sided material is culled and a double-sided one drawn (glTF).
 #[test]
 fn single_sided_materials_show_their_front_only() {

@@ -399,7 +399,7 @@ fn tangents(
 
 /// `COLOR_0` in [0, 1], or `None` where no vertex needs one: without materials, the colours; with
 /// them, for vertices of untextured materials that had vertex colours, the colour over the
-/// material's factor (white elsewhere).
+/// material's factor, and for textured ones the tint of their texture (white elsewhere).
 fn vertex_colors(mesh: &Mesh, materials: Option<&(Vec<Material>, Vec<u32>)>) -> Option<Vec<Vec3>> {
     let colors = mesh.colors.as_ref()?;
     let clamp = |c: Vec3| c.clamp(Vec3::ZERO, Vec3::ONE);
@@ -407,15 +407,20 @@ fn vertex_colors(mesh: &Mesh, materials: Option<&(Vec<Material>, Vec<u32>)>) -> 
         return Some(colors.iter().map(|&c| clamp(c)).collect());
     };
     let tinted = |m: &Material| m.vertex_colors && m.base_color_texture.is_none();
-    if !list.iter().any(tinted) {
+    let tints = mesh.tints.as_ref();
+    if !list.iter().any(tinted) && tints.is_none() {
         return None;
     }
     Some(
         colors
             .iter()
             .zip(of)
-            .map(|(&c, &m)| {
+            .enumerate()
+            .map(|(v, (&c, &m))| {
                 let m = &list[m as usize];
+                if m.base_color_texture.is_some() {
+                    return tints.map_or(Vec3::ONE, |t| clamp(t[v]));
+                }
                 if !tinted(m) {
                     return Vec3::ONE;
                 }

@@ -151,6 +151,7 @@ pub fn clean(mesh: Mesh, options: &CleanOptions) -> (Mesh, CleanReport) {
             .material_of
             .as_ref()
             .map(|a| kept.iter().map(|&v| a[v]).collect()),
+        tints: mesh.tints.as_ref().map(pick),
     };
     debug_assert!(out.check().is_ok());
     (out, report)

@@ -50,6 +50,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
         images: &images,
         mesh: Mesh::default(),
         colors: Vec::new(),
+        tints: Vec::new(),
         uvs: Vec::new(),
         texture_of: Vec::new(),
         texture_index: Default::default(),
@@ -76,6 +77,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
     let Reader {
         mut mesh,
         colors,
+        tints,
         uvs,
         texture_of,
         material_of,
@@ -89,6 +91,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Read, InputError> {
     }
     if colors.iter().any(|&c| c != Vec3::ONE) {
         mesh.colors = Some(colors);
+    }
+    if !mesh.textures.is_empty() && tints.iter().any(|&c| c != Vec3::ONE) {
+        mesh.tints = Some(tints);
     }
     if mesh.triangles.is_empty() {
         return Err(err(if notes.is_empty() {
@@ -425,6 +430,8 @@ struct Reader<'a> {
     mesh: Mesh,
     /// One per position, linear RGB (white where the file gives no colour).
     colors: Vec<Vec3>,
+    /// One per position: `COLOR_0` where a base colour texture is drawn with it, white elsewhere.
+    tints: Vec<Vec3>,
     /// One per position: texture coordinates and texture ([`NO_TEXTURE`] and zero where none).
     uvs: Vec<Vec2>,
     texture_of: Vec<u32>,
@@ -507,7 +514,7 @@ impl Reader<'_> {
                 None => (0..count as u32).collect(),
             };
             let tris = triangles(mode, &indices);
-            let (colors, uvs_here, texture_here) =
+            let (colors, tints, uvs_here, texture_here) =
                 self.appearance(&primitive, &what, &positions, &tris)?;
             let material = self.material(&primitive, &what, texture_here);
             self.material_of
@@ -539,6 +546,10 @@ impl Reader<'_> {
                 all.resize(self.mesh.positions.len(), Vec3::ZERO);
             }
             self.colors.extend(colors);
+            match tints {
+                Some(t) => self.tints.extend(t),
+                None => self.tints.extend(std::iter::repeat_n(Vec3::ONE, count)),
+            }
             self.uvs.extend(uvs_here);
             self.texture_of
                 .extend(std::iter::repeat_n(texture_here, count));
@@ -657,20 +668,23 @@ impl Reader<'_> {
     }
 
     /// A primitive's vertex colours (base colour factor × `COLOR_0` × the texture's mean around
-    /// each vertex, [`bake`]), texture coordinates and texture (an index into `mesh.textures`).
+    /// each vertex, [`bake`]), tints (`COLOR_0` alone, when it has a texture and colours),
+    /// texture coordinates and texture (an index into `mesh.textures`).
+    #[allow(clippy::type_complexity)]
     fn appearance(
         &mut self,
         primitive: &gltf::Primitive,
         what: &str,
         positions: &[[f32; 3]],
         tris: &[[u32; 3]],
-    ) -> Result<(Vec<Vec3>, Vec<Vec2>, u32), InputError> {
+    ) -> Result<(Vec<Vec3>, Option<Vec<Vec3>>, Vec<Vec2>, u32), InputError> {
         let count = positions.len();
         let material = primitive.material();
         let pbr = material.pbr_metallic_roughness();
         let factor = Vec4::from_array(pbr.base_color_factor());
         let mut colors = vec![factor.truncate(); count];
         let (mut uvs_here, mut texture_here) = (vec![Vec2::ZERO; count], NO_TEXTURE);
+        let mut tints = None;
         if let Some(a) = primitive.get(&gltf::Semantic::Colors(0)) {
             let c = if a.dimensions() == Dimensions::Vec4 {
                 self.read_per_vertex::<4>(&a, "COLOR_0", count)?
@@ -680,9 +694,11 @@ impl Reader<'_> {
             } else {
                 self.read_per_vertex::<3>(&a, "COLOR_0", count)?
             };
-            for (out, c) in colors.iter_mut().zip(c) {
-                *out *= Vec3::from_array(c);
+            let c: Vec<Vec3> = c.into_iter().map(Vec3::from_array).collect();
+            for (out, &c) in colors.iter_mut().zip(&c) {
+                *out *= c;
             }
+            tints = Some(c);
         }
         if let Some(info) = pbr.base_color_texture() {
             let set = info.tex_coord();
@@ -712,7 +728,9 @@ impl Reader<'_> {
                 _ => {}
             }
         }
-        Ok((colors, uvs_here, texture_here))
+        // Only a texture is tinted: an untextured vertex's colour holds its `COLOR_0` already.
+        let tints = tints.filter(|_| texture_here != NO_TEXTURE);
+        Ok((colors, tints, uvs_here, texture_here))
     }
 
     /// `accessor` as `N`-component floats, normalized integers scaled to [0, 1] or [−1, 1] as the

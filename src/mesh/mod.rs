@@ -65,6 +65,10 @@ pub struct Mesh {
     /// vertex on a border between materials is split like a texture seam, so a triangle's corners
     /// share one.
     pub material_of: Option<Vec<u32>>,
+    /// Each vertex's tint of its base colour texture (glTF `COLOR_0` on a textured primitive:
+    /// the texture's colour is multiplied by it), linear RGB; white on untextured vertices, whose
+    /// [`Mesh::colors`] hold theirs already. `None` when no textured vertex is tinted.
+    pub tints: Option<Vec<Vec3>>,
 }
 
 /// A surface's material, glTF's metallic-roughness model (an OBJ material maps onto it: `Kd` and
@@ -193,6 +197,7 @@ impl Mesh {
             textures: Vec::new(),
             materials: Vec::new(),
             material_of: None,
+            tints: None,
         }
     }
 
@@ -209,6 +214,7 @@ impl Mesh {
         self.uvs = pick(&source.uvs, ids);
         self.texture_of = pick(&source.texture_of, ids);
         self.material_of = pick(&source.material_of, ids);
+        self.tints = pick(&source.tints, ids);
         self.textures = source.textures.clone();
         self.materials = source.materials.clone();
         self.one_sided = source.one_sided;
@@ -218,6 +224,14 @@ impl Mesh {
     pub fn check(&self) -> Result<(), MeshProblem> {
         let n = self.positions.len();
         if let Some(c) = &self.colors
+            && c.len() != n
+        {
+            return Err(MeshProblem::ColorCount {
+                colors: c.len(),
+                positions: n,
+            });
+        }
+        if let Some(c) = &self.tints
             && c.len() != n
         {
             return Err(MeshProblem::ColorCount {

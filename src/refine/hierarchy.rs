@@ -68,6 +68,9 @@ pub struct HierarchyWedges {
     /// Each wedge's unit normal, encoded as [`Hierarchy::normal`] (its node's where the input had
     /// none).
     pub normal: Vec<[i16; 2]>,
+    /// Each wedge's tint of its texture, linear RGB as RGBA8 (see [`crate::vtree::Wedges::tint`]);
+    /// empty when nothing is tinted.
+    pub tint: Vec<[u8; 4]>,
 }
 
 impl HierarchyWedges {
@@ -690,6 +693,7 @@ fn wedges_of(
             parent,
             corners,
             normal: Vec::new(),
+            tint: Vec::new(),
         },
         renumbered,
     )
@@ -727,6 +731,13 @@ fn wedge_vertices(
             own
         };
         hw.normal[new as usize] = encode_normal(n);
+    }
+    if !w.tint.is_empty() {
+        hw.tint = vec![[255; 4]; w.len()];
+        for (old, &new) in renumbered.iter().enumerate() {
+            let c = w.tint[old].map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+            hw.tint[new as usize] = [c[0], c[1], c[2], 255];
+        }
     }
     let (c, uv) = wedge_appearance(w, &renumbered, layer, tree.materials.is_some());
     let c = if tree.has_colors { c } else { Vec::new() };

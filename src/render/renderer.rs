@@ -73,6 +73,8 @@ struct Model {
     debug: wgpu::Buffer,
     /// `[u, v, texture, material]` per node (−1: none; all −1 for a model with neither).
     uv_texture: wgpu::Buffer,
+    /// Per vertex, the tint its texture is multiplied by (white where nothing is tinted).
+    tint: wgpu::Buffer,
     has_colors: bool,
     has_textures: bool,
     /// A one-sided mesh with colours: lighting baked in, drawn unlit by `ColorBy::Auto`.
@@ -106,12 +108,13 @@ pub struct Renderer {
     timer: Option<Timer>,
 }
 
-fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 5] {
+fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 6] {
     const POSITION: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
     const NORMAL: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![1 => Snorm16x2];
     const COLOR: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Unorm8x4];
     const DEBUG: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![3 => Float32x2];
     const UV_TEXTURE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![4 => Float32x4];
+    const TINT: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![5 => Unorm8x4];
     let layout =
         |stride: u64, attributes: &'static [wgpu::VertexAttribute]| wgpu::VertexBufferLayout {
             array_stride: stride,
@@ -124,6 +127,7 @@ fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 5] {
         layout(4, &COLOR),
         layout(8, &DEBUG),
         layout(16, &UV_TEXTURE),
+        layout(4, &TINT),
     ]
 }
 
@@ -336,6 +340,10 @@ impl Renderer {
                 .map_or_else(|| h.normal.clone(), |w| w.normal.clone()),
             expand(h, &debug),
         );
+        let tint = match &h.wedges {
+            Some(w) if !w.tint.is_empty() => w.tint.clone(),
+            _ => vec![[255u8; 4]; positions.len()],
+        };
         let colors = if has_colors || h.wedges.is_none() {
             colors
         } else {
@@ -354,6 +362,7 @@ impl Renderer {
             colors: vertex("colors", bytemuck::cast_slice(&colors)),
             debug: vertex("debug", bytemuck::cast_slice(&debug)),
             uv_texture: vertex("uv_texture", bytemuck::cast_slice(&uv_texture)),
+            tint: vertex("tint", bytemuck::cast_slice(&tint)),
             has_colors,
             has_textures,
             baked: has_colors && h.one_sided,
@@ -534,6 +543,7 @@ impl Renderer {
         pass.set_vertex_buffer(2, model.colors.slice(..));
         pass.set_vertex_buffer(3, model.debug.slice(..));
         pass.set_vertex_buffer(4, model.uv_texture.slice(..));
+        pass.set_vertex_buffer(5, model.tint.slice(..));
         pass.set_pipeline(&self.fill);
         model.indices.draw(&mut pass, model.triangles as u64);
         if options.wireframe {

@@ -160,6 +160,7 @@ fn check_wedges(tree: &VertexTree, w: &super::Wedges) -> Result<(), TreeProblem>
     ]
     .iter()
     .any(|&l| l != count)
+        || !(w.tint.is_empty() || w.tint.len() == count)
         || w.corners.len() != tree.triangles.len()
     {
         return bad(

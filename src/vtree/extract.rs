@@ -151,6 +151,12 @@ fn level_mesh(
             .materials
             .as_ref()
             .map(|m| each(&|x| wedges.map_or(&m.of, |w| &w.material)[x])),
+        tints: wedges.filter(|w| !w.tint.is_empty()).map(|w| {
+            looks
+                .iter()
+                .map(|&x| Vec3::from_array(w.tint[x as usize]))
+                .collect()
+        }),
     }
 }
 

@@ -52,8 +52,11 @@ pub enum Encoding {
 /// count, then each as a u64 length and its image file's bytes); and its materials (a u32 length
 /// and the materials as JSON, then each node's material as a u32); and its wedges (a u32 count,
 /// then per wedge its node and parent as u32, `u`, `v` as f32, texture and material as u32 and
-/// colour and normal as three f32 each, one array after another; then each triangle's three leaf wedges as u32).
-const OPTIONAL: [[u8; 4]; 4] = [*b"UVTX", *b"TEXS", *b"MATL", *b"WEDG"];
+/// colour and normal as three f32 each, one array after another; then each triangle's three leaf wedges as u32);
+/// and its wedges' tints (`TINT`: a u32 count, then each wedge's tint of its texture as three f32;
+/// only when some textured vertex of the input was tinted: a reader before it draws the textures
+/// untinted).
+const OPTIONAL: [[u8; 4]; 5] = [*b"UVTX", *b"TEXS", *b"MATL", *b"WEDG", *b"TINT"];
 /// Bytes of one wedge in `WEDG`.
 const WEDGE_LEN: u64 = 48;
 const UVTX_LEN: u64 = 12;
@@ -183,6 +186,13 @@ fn write_to(
         sections.push(&wedg);
         tags.push(OPTIONAL[3]);
     }
+    let mut tint = Vec::new();
+    if let Some(w) = tree.wedges.as_ref().filter(|w| !w.tint.is_empty()) {
+        tint.extend_from_slice(&(w.tint.len() as u32).to_le_bytes());
+        tint.extend_from_slice(bytemuck::cast_slice(&w.tint));
+        sections.push(&tint);
+        tags.push(OPTIONAL[4]);
+    }
     let table_end = HEADER + TABLE_ENTRY * sections.len();
     let mut head = Vec::with_capacity(table_end + 4);
     head.extend_from_slice(&MAGIC);
@@ -284,7 +294,7 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
             ))
         })
     };
-    let [uvtx, texs, matl, wedg] = OPTIONAL.map(|t| get(&t).map(|(_, b)| b));
+    let [uvtx, texs, matl, wedg, tint] = OPTIONAL.map(|t| get(&t).map(|(_, b)| b));
     let (_, meta) = need(b"META")?;
     let (_, part_bytes) = need(b"PART")?;
     if meta.len() != META_LEN {
@@ -379,9 +389,11 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         let images = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
         tree.materials = Some(materials(matl, nodes, images, &fail)?);
     }
-    if let Some(wedg) = wedg {
-        tree.wedges = Some(wedges(wedg, tris, &fail)?);
-    }
+    tree.wedges = match (wedg, tint) {
+        (Some(wedg), tint) => Some(wedges(wedg, tint, tris, &fail)?),
+        (None, None) => None,
+        (None, Some(_)) => return Err(fail.invalid("section TINT without WEDG".into())),
+    };
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
 }
@@ -435,9 +447,14 @@ pub fn read_pages(bytes: &[u8], path: &Path) -> Result<Vec<super::PageNodes>, Fo
         .collect()
 }
 
-/// The WEDG section, its lengths checked (what its numbers mean is checked with the tree, by
+/// The WEDG section with its TINT, their lengths checked (what its numbers mean is checked with the tree, by
 /// [`super::check`]).
-fn wedges(wedg: &[u8], triangles: u32, fail: &Fail) -> Result<super::Wedges, FormatError> {
+fn wedges(
+    wedg: &[u8],
+    tint: Option<&[u8]>,
+    triangles: u32,
+    fail: &Fail,
+) -> Result<super::Wedges, FormatError> {
     let count = (wedg.len() >= 4).then(|| Cursor { bytes: wedg }.u32(0) as u64);
     let want = count.map(|c| 4 + c * WEDGE_LEN + triangles as u64 * 12);
     let Some(count) = count.filter(|_| want == Some(wedg.len() as u64)) else {
@@ -471,7 +488,23 @@ fn wedges(wedg: &[u8], triangles: u32, fail: &Fail) -> Result<super::Wedges, For
         color: bytemuck::pod_collect_to_vec(color),
         normal: bytemuck::pod_collect_to_vec(normal),
         corners: bytemuck::pod_collect_to_vec(&wedg[at..]),
+        tint: match tint {
+            Some(tint) => tints(tint, count, fail)?,
+            None => Vec::new(),
+        },
     })
+}
+
+/// The TINT section: a tint for each of `count` wedges.
+fn tints(tint: &[u8], count: usize, fail: &Fail) -> Result<Vec<[f32; 3]>, FormatError> {
+    let said = (tint.len() >= 4).then(|| Cursor { bytes: tint }.u32(0) as usize);
+    if said != Some(count) || tint.len() != 4 + count * 12 {
+        return Err(fail.invalid(format!(
+            "section TINT is {} bytes, which is not a tint for each of the {count} wedges",
+            tint.len()
+        )));
+    }
+    Ok(bytemuck::pod_collect_to_vec(&tint[4..]))
 }
 
 /// The MATL section, checked: its JSON, one material per node, in range, and every texture in

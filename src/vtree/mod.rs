@@ -139,6 +139,9 @@ pub struct Wedges {
     pub normal: Vec<[f32; 3]>,
     /// Per triangle of [`VertexTree::triangles`], its corners' leaf wedges.
     pub corners: Vec<[u32; 3]>,
+    /// Linear RGB the wedge's texture is multiplied by (the input's `COLOR_0` on a textured
+    /// vertex; white on untextured ones, whose `color` has it); empty when nothing is tinted.
+    pub tint: Vec<[f32; 3]>,
 }
 
 impl Wedges {

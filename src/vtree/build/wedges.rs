@@ -126,6 +126,8 @@ pub(super) struct WedgeState {
     material: Vec<u32>,
     uv: Vec<[f32; 2]>,
     color: Vec<[f32; 3]>,
+    /// Tints of textures (empty when the input has none).
+    tint: Vec<[f32; 3]>,
     /// Unit normals (zero where the input has none).
     normal: Vec<[f32; 3]>,
     /// Each live slot's wedges, its principal (heaviest) first.
@@ -194,6 +196,10 @@ impl WedgeState {
                     .collect(),
                 None => vec![[1.0; 3]; count],
             },
+            tint: mesh
+                .tints
+                .as_ref()
+                .map_or_else(Vec::new, |t| t.iter().map(|c| c.to_array()).collect()),
             quadric,
             of_slot,
             scales,
@@ -439,6 +445,12 @@ impl WedgeState {
             .iter()
             .map(|&m| Vec3::from_array(self.normal[m as usize]) * share(m))
             .sum();
+        let tint = (!self.tint.is_empty()).then(|| {
+            members
+                .iter()
+                .map(|&m| Vec3::from_array(self.tint[m as usize]) * share(m))
+                .sum::<Vec3>()
+        });
         let w = self.node.len() as u32;
         let place = self.held[members[0] as usize];
         self.quadric[place as usize] = q;
@@ -451,6 +463,9 @@ impl WedgeState {
         self.material.push(self.material[heaviest as usize]);
         self.uv.push(uv.to_array());
         self.color.push(color.to_array());
+        if let Some(tint) = tint {
+            self.tint.push(tint.to_array());
+        }
         self.normal.push(normal.normalize_or_zero().to_array());
         for &m in members {
             self.parent[m as usize] = w;
@@ -488,6 +503,7 @@ impl WedgeState {
             material: self.material,
             color: self.color,
             normal: self.normal,
+            tint: self.tint,
         }
     }
 }
