@@ -270,7 +270,7 @@ impl Refiner {
             }
             let whole = self.cursor == 0;
             visited += self.sweep(h, &frame, frame.limit - visited);
-            if self.cursor == self.stream.len() {
+            if self.cursor == self.stream.runs() {
                 self.cursor = 0;
                 if whole && self.settles_in_one_sweep() {
                     // Nothing a whole sweep left would change in another (see `settles_in_one_sweep`).
@@ -320,19 +320,52 @@ impl Refiner {
     /// among them), until the end of the stream or the frame's deadline; moves the cursor to the
     /// first entry not visited. Returns the visits made.
     fn sweep(&mut self, h: &Hierarchy, frame: &Frame, limit: usize) -> usize {
+        // Which runs may change, found on every core first (not while a geomorph is under way,
+        // which a visit moves on whatever its tests say).
+        let changing = self.morphs.is_empty().then(|| {
+            let flags = self
+                .stream
+                .changing(|e, left| self.may_change(h, frame, e, left));
+            let lefts: Vec<u32> = (0..flags.len())
+                .map(|k| self.stream.left_of_run(k))
+                .collect();
+            (flags, lefts)
+        });
+        let mut run = self.cursor;
         self.stream.begin(self.cursor);
         let mut visits = 0usize;
-        while visits < limit
-            && !(visits % 256 == 255 && frame.deadline.is_some_and(|d| Instant::now() >= d))
-        {
-            let Some(e) = self.children.pop().or_else(|| self.stream.next()) else {
+        let stop = |visits: usize| {
+            visits >= limit
+                || (visits % 256 == 255 && frame.deadline.is_some_and(|d| Instant::now() >= d))
+        };
+        'runs: while self.stream.has_run() {
+            // A run where nothing would change, after a left neighbour that did not, stays.
+            if let Some((flags, lefts)) = &changing
+                && !flags[run]
+                && self.stream.last().map_or(NIL, |l| l.node) == lefts[run]
+            {
+                self.quiet_visits += self.stream.pass();
+                run += 1;
+                continue;
+            }
+            if stop(visits) {
                 break;
-            };
-            visits += 1;
-            if self.visit(h, frame, e) {
-                self.quiet_visits = 0;
-            } else {
-                self.quiet_visits += 1;
+            }
+            self.stream.take_run();
+            run += 1;
+            loop {
+                if stop(visits) {
+                    break 'runs;
+                }
+                let Some(e) = self.children.pop().or_else(|| self.stream.next()) else {
+                    break;
+                };
+                visits += 1;
+                if self.visit(h, frame, e) {
+                    self.quiet_visits = 0;
+                } else {
+                    self.quiet_visits += 1;
+                }
             }
         }
         // Children not visited before the limit stand where their parent stood, in order, and
@@ -341,8 +374,24 @@ impl Refiner {
         while let Some(e) = self.children.pop() {
             self.stream.push(e);
         }
-        self.cursor = resume.min(self.stream.end());
+        self.stream.end();
+        self.cursor = resume;
         visits
+    }
+
+    /// Whether a visit to entry `e`, after `left`, could change the front: its node would split
+    /// or, beside its sibling, their parent unify (the visit's tests, with a one-sided model's walk
+    /// of triangles taken as a yes).
+    fn may_change(&self, h: &Hierarchy, frame: &Frame, e: &Entry, left: Option<&Entry>) -> bool {
+        let (tests, view, tau) = (&self.settings.tests, &frame.view, frame.tau);
+        let split = !h.is_leaf(e.node)
+            && tests.projected(view, &e.own) > tau
+            && (h.one_sided || tests.sees(view, &e.own));
+        let unify = left.is_some_and(|l| e.pairs_with(l))
+            && ((tests.screen_error
+                && tests.projected(view, &e.up) < tau * (1.0 - self.settings.hysteresis))
+                || !tests.sees(view, &e.up));
+        split || unify
     }
 
     /// Decides about the active node of entry `e`, writing what stands there now to the stream
