@@ -47,6 +47,7 @@ fn main() {
         compare: true,
         full: false,
         out_dir: std::env::temp_dir().join("vunify-render-bench"),
+        started: None,
     };
     let s = render_path(&gpu, &hierarchy, &path, &job, &mut |_, _| {}).unwrap();
     let o = |x: Option<f64>| x.map_or("n/a".to_string(), |v| format!("{v:.1}"));

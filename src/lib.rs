@@ -15,6 +15,7 @@ pub mod export;
 pub mod fixtures;
 pub mod generate;
 pub mod measure;
+pub mod memory;
 pub mod mesh;
 pub mod radiosity;
 pub mod refine;

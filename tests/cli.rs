@@ -276,6 +276,42 @@ fn path_and_render_commands() {
         "{err}"
     );
 
+    // --json: the summary as JSON, with what a user of a big model asks first.
+    let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+        .args([
+            "render",
+            model,
+            "--path",
+            path.to_str().unwrap(),
+            "--size",
+            "96x64",
+            "--fps",
+            "2",
+            "--every",
+            "1000",
+            "--json",
+            "--out",
+            tmp("rj").to_str().unwrap(),
+        ])
+        .env("CI", "true")
+        .output()
+        .unwrap();
+    if out.status.success() || std::env::var_os("CI").is_some() {
+        let summary: serde_json::Value = serde_json::from_str(&ok(&out)).unwrap();
+        for key in [
+            "first_frame_s",
+            "max_frame_ms",
+            "refine_ms_median",
+            "frames",
+        ] {
+            assert!(summary[key].as_f64().is_some(), "{key}: {summary}");
+        }
+        assert!(summary["first_frame_s"].as_f64().unwrap() > 0.0);
+        if cfg!(target_os = "linux") {
+            assert!(summary["peak_resident_mb"].as_f64().unwrap() > 1.0);
+        }
+    }
+
     let help = ok(&vunify(&["render", "--help"]));
     for option in [
         "--path",
@@ -287,6 +323,7 @@ fn path_and_render_commands() {
         "--compare",
         "--wireframe",
         "--color-by",
+        "--json",
     ] {
         assert!(help.contains(option), "render --help lacks {option}");
     }

@@ -347,6 +347,7 @@ fn render_job_writes_its_files() {
         compare: true,
         full: false,
         out_dir: out.clone(),
+        started: None,
     };
     let s = job::render_path(&gpu, &h, &path, &job, &mut |_, _| {}).unwrap();
     assert_eq!(s.frames, 11);
@@ -363,6 +364,41 @@ fn render_job_writes_its_files() {
     let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();
     assert_eq!(csv.lines().count(), 12);
     assert!(s.psnr_db_mean.is_some());
+    // The longest frame is the largest refine + upload + draw of stats.csv (as rounded there), the
+    // first frame came after the start, and the peak holds every frame's resident memory.
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    let total =
+        |r: &Vec<f64>| r[column("refine_ms")] + r[column("upload_ms")] + r[column("frame_ms")];
+    let longest = rows.iter().map(total).fold(0.0, f64::max);
+    assert!(
+        (s.max_frame_ms - longest).abs() < 0.01,
+        "{} vs {longest}",
+        s.max_frame_ms
+    );
+    assert!(
+        s.first_frame_s > 0.0 && s.first_frame_s < 600.0,
+        "{}",
+        s.first_frame_s
+    );
+    if let Some(peak) = s.peak_resident_mb {
+        for r in &rows {
+            let resident = r[column("resident_mb")];
+            assert!(
+                resident > 1.0 && resident <= peak + 0.01,
+                "{resident} of {peak}"
+            );
+        }
+    }
     let _ = image_diff::VISIBLE_DIFFERENCE;
     std::fs::remove_dir_all(out).ok();
 }
@@ -626,6 +662,7 @@ fn bundled_scenes_fly_in_without_slivers() {
                 compare: true,
                 full: false,
                 out_dir: dir.join(format!("{name}-{strict}")),
+                started: None,
             };
             let s = render_path(&gpu, &h, &path, &job, &mut |_, _| {}).unwrap();
             let (worst, differing) = (s.psnr_db_min.unwrap(), s.differing_max.unwrap());

@@ -216,7 +216,7 @@ pub fn build_and_write(
     vtree::write_with(&tree, output, encoding)
         .with_context(|| format!("cannot write {}", output.display()))?;
     let file_bytes = std::fs::metadata(output).map_or(0, |m| m.len());
-    let peak = peak_memory_bytes();
+    let peak = vunify::memory::peak_resident_bytes();
     if json {
         let json = serde_json::json!({
             "input": input, "output": output, "metric": options.metric.name(),
@@ -289,12 +289,4 @@ pub fn build_and_write(
     }
     println!("wrote      {}", output.display());
     Ok(())
-}
-
-/// Peak resident memory of this process so far (Linux `VmHWM`), in bytes.
-fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
 }

@@ -56,6 +56,12 @@ pub struct RenderArgs {
     /// texture, or uv (a checker over the texture coordinates, to see seams and stretch).
     #[arg(long, value_enum, default_value = "auto")]
     color_by: ColorChoice,
+    /// Print the summary as JSON instead of text: the medians and 95th percentiles of refinement,
+    /// GPU and frame times, triangles, image error with --compare, seconds to the first frame
+    /// (`first_frame_s`), the longest frame (`max_frame_ms`) and the peak resident memory
+    /// (`peak_resident_mb`). stats.csv has every frame.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -88,6 +94,7 @@ pub fn run(_: RenderArgs) -> Result<()> {
 
 #[cfg(feature = "render")]
 pub fn run(args: RenderArgs) -> Result<()> {
+    let started = std::time::Instant::now();
     use anyhow::bail;
     use vunify::refine::{Hierarchy, Mode, Settings};
     use vunify::render::{ColorBy, DrawOptions, Gpu, job};
@@ -142,21 +149,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
         compare: args.compare,
         full: args.full,
         out_dir: args.out.clone(),
+        started: Some(started),
     };
-    println!(
-        "rendering {} on {} at {}x{}",
-        args.model.display(),
-        gpu.adapter_name(),
-        args.size[0],
-        args.size[1]
-    );
+    if !args.json {
+        println!(
+            "rendering {} on {} at {}x{}",
+            args.model.display(),
+            gpu.adapter_name(),
+            args.size[0],
+            args.size[1]
+        );
+    }
     let bar = super::progress_bar(0, "frames [{bar:40}] {pos}/{len} ({eta})");
     let summary = job::render_path(&gpu, &h, &path, &job, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;
     bar.finish_and_clear();
-    print_summary(&summary, &args.out);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print_summary(&summary, &args.out);
+    }
     Ok(())
 }
 
@@ -180,6 +194,13 @@ fn print_summary(s: &vunify::render::job::Summary, out: &std::path::Path) {
     if let Some(g) = s.gpu_ms_median {
         println!("gpu        median {g:.2} ms a frame");
     }
+    println!(
+        "frames     first after {:.2} s, longest {:.1} ms (refine + upload + draw + readback){}",
+        s.first_frame_s,
+        s.max_frame_ms,
+        s.peak_resident_mb
+            .map_or(String::new(), |m| format!("; peak resident {m:.0} MiB"))
+    );
     if let (Some(mean), Some(min), Some(d), Some(dmax)) = (
         s.psnr_db_mean,
         s.psnr_db_min,

@@ -26,6 +26,9 @@ pub struct RenderJob {
     /// Draw the full mesh instead of the level of detail (no refinement).
     pub full: bool,
     pub out_dir: PathBuf,
+    /// When the user started it (the process's start, as near as the command knows): the summary's
+    /// `first_frame_s` counts from here. `None`: from the call to [`render_path`].
+    pub started: Option<Instant>,
 }
 
 /// One frame's line of `stats.csv`.
@@ -49,6 +52,15 @@ pub struct FrameRecord {
     /// With `compare`: the full mesh's GPU and wall time for the same frame.
     pub full_gpu_ms: Option<f64>,
     pub full_frame_ms: Option<f64>,
+    /// The process's resident memory after the frame, MiB (Linux; `None` elsewhere).
+    pub resident_mb: Option<f64>,
+}
+
+impl FrameRecord {
+    /// What the frame took on the CPU's clock: refinement, upload, drawing and readback.
+    pub fn total_ms(&self) -> f64 {
+        self.refine_ms + self.upload_ms + self.frame_ms
+    }
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -74,6 +86,12 @@ pub struct Summary {
     pub differing_mean: Option<f64>,
     pub differing_max: Option<f64>,
     pub worst_frame: Option<usize>,
+    /// Seconds from [`RenderJob::started`] until the first frame was drawn and read back.
+    pub first_frame_s: f64,
+    /// The longest frame's [`FrameRecord::total_ms`].
+    pub max_frame_ms: f64,
+    /// The process's peak resident memory (`/usr/bin/time -v`'s maximum resident set size), MiB.
+    pub peak_resident_mb: Option<f64>,
     pub written: Vec<PathBuf>,
 }
 
@@ -109,6 +127,7 @@ pub fn render_path(
     job: &RenderJob,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Summary, JobError> {
+    let started = job.started.unwrap_or_else(Instant::now);
     let frames = frame_count(path.duration(), job.fps).ok_or(JobError::TooManyFrames {
         seconds: path.duration(),
         fps: job.fps,
@@ -178,8 +197,12 @@ pub fn render_path(
             upload_bytes,
             gpu_ms,
             frame_ms,
+            resident_mb: crate::memory::resident_bytes().map(|b| b as f64 / MIB),
             ..Default::default()
         };
+        if i == 0 {
+            summary.first_frame_s = started.elapsed().as_secs_f64();
+        }
         if let Some(full) = full.as_mut() {
             let t0 = Instant::now();
             let (reference, full_gpu_ms) = frame(gpu, full, &target, &camera, &job.draw)?;
@@ -220,8 +243,11 @@ pub fn render_path(
         summary.worst_frame = Some(*i);
     }
     summarise(&mut summary, &records);
+    summary.peak_resident_mb = crate::memory::peak_resident_bytes().map(|b| b as f64 / MIB);
     Ok(summary)
 }
+
+const MIB: f64 = 1024.0 * 1024.0;
 
 /// Renders one frame into `target` and reads it back, with the GPU time where there are timestamps.
 pub fn frame(
@@ -267,6 +293,10 @@ fn summarise(s: &mut Summary, records: &[FrameRecord]) {
     refine.sort_by(f64::total_cmp);
     s.refine_ms_median = percentile(&refine, 0.5);
     s.refine_ms_p95 = percentile(&refine, 0.95);
+    s.max_frame_ms = records
+        .iter()
+        .map(FrameRecord::total_ms)
+        .fold(0.0, f64::max);
     let sorted = |f: &dyn Fn(&FrameRecord) -> Option<f64>| {
         let mut v: Vec<f64> = records.iter().filter_map(f).collect();
         v.sort_by(f64::total_cmp);
@@ -303,13 +333,13 @@ fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
     let mut out = Vec::new();
     writeln!(
         out,
-        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share,full_gpu_ms,full_frame_ms"
+        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share,full_gpu_ms,full_frame_ms,resident_mb"
     )?;
     let opt = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.4}"));
     for r in records {
         writeln!(
             out,
-            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{},{},{}",
+            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{},{},{},{}",
             r.frame,
             r.time_s,
             r.triangles,
@@ -325,6 +355,7 @@ fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
             opt(r.differing),
             opt(r.full_gpu_ms),
             opt(r.full_frame_ms),
+            opt(r.resident_mb),
         )?;
     }
     crate::export::write_atomic(file, &out)
