@@ -247,6 +247,28 @@ fn camera_walks_keep_the_front_exact() {
     }
 }
 
+/// The runtime's hierarchy is built on every core and comes out the same on one: a random scene,
+/// the cessna and a textured scan (wedges).
+#[test]
+fn hierarchies_are_the_same_on_any_number_of_threads() {
+    let mut meshes = vec![random_scene(9)];
+    if let Some(dir) = models_dir() {
+        let (cessna, _) =
+            vunify::mesh::load(&dir.join("cessna.obj"), &CleanOptions::default()).unwrap();
+        meshes.push(vunify::fixtures::textured_scan(&cessna));
+        meshes.push(cessna);
+    }
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for (k, mesh) in meshes.iter().enumerate() {
+        let tree = tree_of(mesh);
+        let serial = one.install(|| Hierarchy::new(&tree));
+        assert!(serial == Hierarchy::new(&tree), "mesh {k}");
+    }
+}
+
 /// Every frame in tolerance mode ends settled, which a sweep that passed by a run it should have
 /// rewritten (`refine::stream`'s scan for the runs that may change) would break: no visible front
 /// node has an error above τ, and no two active siblings have a parent that wants them unified

@@ -16,6 +16,7 @@ use glam::Vec3;
 /// leaves are a range of ids), then internal nodes in pre-order, the root first. Nodes and triangles
 /// near each other in the tree are near each other in memory, which is what a moving camera touches.
 /// Arrays named `internal_*` are indexed by `u - leaf_count`.
+#[derive(PartialEq)]
 pub struct Hierarchy {
     pub leaf_count: u32,
     /// Position of every node: the vertex it is when it is on the front.
@@ -58,6 +59,7 @@ pub struct Hierarchy {
 /// A tree's wedges as the runtime reads them (see [`crate::vtree::Wedges`]): renumbered so that
 /// node `u`'s are `start[u]..start[u + 1]`, which are also their vertices in the drawn vertex
 /// buffer.
+#[derive(PartialEq)]
 pub struct HierarchyWedges {
     pub start: Vec<u32>,
     /// Each wedge's node, and the wedge it becomes at its node's parent ([`NIL`] at the root).
@@ -153,6 +155,10 @@ pub(crate) const OCT_ERROR_RADIANS: f32 = 2e-3;
 
 impl Hierarchy {
     pub fn new(tree: &VertexTree) -> Hierarchy {
+        // Every per-node and per-triangle pass below runs on all cores (each gathers from the
+        // tree's nodes in a new order, a cache miss a read: at 14 M triangles this was most of the
+        // time before a model's first frame); results are the same on any number of threads.
+        use rayon::prelude::*;
         let n = tree.leaf_count;
         let n_leaves = n;
         let count = tree.nodes.len();
@@ -160,27 +166,34 @@ impl Hierarchy {
         let (new_id, old_of) = depth_first_ids(tree);
         let node = |id: u32| &old[old_of[id as usize] as usize];
         let renumber = |u: u32| if u == NIL { NIL } else { new_id[u as usize] };
-        let position: Vec<Vec3> = (0..count as u32).map(|u| node(u).position()).collect();
+        let position: Vec<Vec3> = (0..count as u32)
+            .into_par_iter()
+            .map(|u| node(u).position())
+            .collect();
         let parent: Vec<u32> = (0..count as u32)
+            .into_par_iter()
             .map(|u| renumber(node(u).parent))
             .collect();
         let normal = (0..count as u32)
+            .into_par_iter()
             .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
             .collect();
         let color = colors_of(tree, &old_of);
         let (uv_texture, textures, materials, layer) = appearance_of(tree, &old_of);
-        let internal: Vec<&crate::vtree::Node> = (n..count as u32).map(node).collect();
-        let internal_children: Vec<[u32; 2]> =
-            internal.iter().map(|x| x.children.map(renumber)).collect();
+        let internal: Vec<&crate::vtree::Node> =
+            (n..count as u32).into_par_iter().map(node).collect();
+        let internal_children: Vec<[u32; 2]> = internal
+            .par_iter()
+            .map(|x| x.children.map(renumber))
+            .collect();
         debug_assert!(
             internal_children
                 .iter()
                 .enumerate()
                 .all(|(k, c)| c[0] < n || c[0] == n + k as u32 + 1)
         );
-        let deviation = tree.deviation_bounds();
         let internal_radius: Vec<f32> = internal
-            .iter()
+            .par_iter()
             .map(|x| {
                 let center = Vec3::from_slice(&x.sphere);
                 (center.distance(x.position()) + x.sphere[3]) * (1.0 + BOUND_SLACK)
@@ -193,6 +206,15 @@ impl Hierarchy {
             .map(|(&t, &r)| r * t.min(std::f32::consts::FRAC_PI_2).sin())
             .collect();
         let (lo, hi) = leaf_ranges(&internal_children, n);
+        let deviation =
+            deviation_bounds(&position, &lo, &hi, &internal_children, tree.position_error);
+        #[cfg(debug_assertions)]
+        {
+            let by_tree = tree.deviation_bounds();
+            debug_assert!(deviation.iter().enumerate().all(|(k, &b)| {
+                b.to_bits() == by_tree[old_of[n as usize + k] as usize].to_bits()
+            }));
+        }
         let mut internal_nodes: Vec<Internal> = internal_children
             .iter()
             .enumerate()
@@ -203,53 +225,19 @@ impl Hierarchy {
                 appear: 0,
             })
             .collect();
-        let contains = |u: u32, leaf: u32| {
-            let k = (u - n) as usize;
-            (lo[k]..hi[k]).contains(&leaf)
-        };
-
-        // d(t) and the rotation that puts the outside corner last.
         // A one-sided mesh (a lit room, seen from inside) means its winding even when its volume is
         // negative; anything else seen from outside is taken to be wound inward when it is.
         let inward = !tree.one_sided && signed_volume(&tree.nodes, &tree.triangles) < 0.0;
-        let mut keyed: Vec<(u32, [u32; 3], u32, usize)> = tree
-            .triangles
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let t = t.map(renumber);
-                let [x, y, z] = t;
-                let mut a = parent[x as usize];
-                while !contains(a, y) && !contains(a, z) {
-                    a = parent[a as usize];
-                }
-                // `a` is the lowest ancestor of x holding y or z. Holding both, the lowest pairwise
-                // ancestor is that of y and z (both in a's other child), and x is the outside corner.
-                let (d, outside) = match (contains(a, y), contains(a, z)) {
-                    (true, true) => {
-                        let mut b = parent[y as usize];
-                        while !contains(b, z) {
-                            b = parent[b as usize];
-                        }
-                        (b, 0)
-                    }
-                    (true, false) => (a, 2),
-                    _ => (a, 1),
-                };
-                let rotated = [t[(outside + 1) % 3], t[(outside + 2) % 3], t[outside]];
-                (d - n, rotated, i as u32, outside)
-            })
-            .collect();
-        keyed.sort_by_key(|&(k, ..)| k);
+        let keyed = keyed_triangles(tree, &new_id, &parent, &lo, &hi);
         count_appearing(&mut internal_nodes, &keyed);
         let (color, uv_texture, wedges) = match &tree.wedges {
             Some(w) => wedge_vertices(tree, w, &new_id, &keyed, &layer),
             None => (color, uv_texture, None),
         };
-        let triangles = keyed.into_iter().map(|(_, t, ..)| t).collect();
+        let triangles = keyed.into_par_iter().map(|(_, t, ..)| t).collect();
         let flip = if inward { -1.0 } else { 1.0 };
         let internal_cone: Vec<([i16; 2], f32)> =
-            internal.iter().map(|x| runtime_cone(x, flip)).collect();
+            internal.par_iter().map(|x| runtime_cone(x, flip)).collect();
 
         Hierarchy {
             leaf_count: n,
@@ -261,10 +249,10 @@ impl Hierarchy {
             textures,
             materials,
             internal_bounds: internal
-                .iter()
+                .par_iter()
                 .enumerate()
                 .map(|(k, x)| Bounds {
-                    bound: deviation[old_of[n as usize + k] as usize],
+                    bound: deviation[k],
                     radius: internal_radius[k],
                     error: x.error,
                     shading: internal_shading[k],
@@ -432,13 +420,21 @@ impl Hierarchy {
 /// Six times the signed volume enclosed by the triangles (positive when they wind counter-clockwise
 /// seen from outside). Open meshes give a rough answer, which is all the orientation guess needs.
 fn signed_volume(nodes: &[crate::vtree::Node], triangles: &[[u32; 3]]) -> f64 {
-    triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| nodes[v as usize].position().as_dvec3());
-            a.dot(b.cross(c))
+    use rayon::prelude::*;
+    // Sums of fixed blocks, added in order: the same bits on any number of threads.
+    let blocks: Vec<f64> = triangles
+        .par_chunks(1 << 14)
+        .map(|block| {
+            block
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| nodes[v as usize].position().as_dvec3());
+                    a.dot(b.cross(c))
+                })
+                .sum()
         })
-        .sum()
+        .collect();
+    blocks.iter().sum()
 }
 
 /// The encoding of an unknown (zero) normal: −32768 never comes out of a unit vector.
@@ -501,6 +497,91 @@ fn depth_first_ids(tree: &VertexTree) -> (Vec<u32>, Vec<u32>) {
         }
     }
     (new_id, old_of)
+}
+
+/// Every triangle in this numbering with `d(t)` (as `d − leaf_count`), its corners rotated so that
+/// the outside one comes last, its index in the tree and that rotation; sorted by `d(t)`, then index.
+fn keyed_triangles(
+    tree: &VertexTree,
+    new_id: &[u32],
+    parent: &[u32],
+    lo: &[u32],
+    hi: &[u32],
+) -> Vec<(u32, [u32; 3], u32, usize)> {
+    use rayon::prelude::*;
+    let n = tree.leaf_count;
+    let contains = |u: u32, leaf: u32| {
+        let k = (u - n) as usize;
+        (lo[k]..hi[k]).contains(&leaf)
+    };
+    let mut keyed: Vec<(u32, [u32; 3], u32, usize)> = tree
+        .triangles
+        .par_iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let t = t.map(|v| new_id[v as usize]);
+            let [x, y, z] = t;
+            let mut a = parent[x as usize];
+            while !contains(a, y) && !contains(a, z) {
+                a = parent[a as usize];
+            }
+            // `a` is the lowest ancestor of x holding y or z. Holding both, the lowest pairwise
+            // ancestor is that of y and z (both in a's other child), and x is the outside corner.
+            let (d, outside) = match (contains(a, y), contains(a, z)) {
+                (true, true) => {
+                    let mut b = parent[y as usize];
+                    while !contains(b, z) {
+                        b = parent[b as usize];
+                    }
+                    (b, 0)
+                }
+                (true, false) => (a, 2),
+                _ => (a, 1),
+            };
+            let rotated = [t[(outside + 1) % 3], t[(outside + 2) % 3], t[outside]];
+            (d - n, rotated, i as u32, outside)
+        })
+        .collect();
+    keyed.par_sort_by_key(|&(k, ..)| k);
+    keyed
+}
+
+/// [`VertexTree::deviation_bounds`] of the internal nodes, in this numbering and with the same
+/// bits: each node's leaves are the range `lo[k]..hi[k]` of `position`, read in order on every
+/// core, where the tree's own walks up from every leaf to the root and meets each ancestor at
+/// random (at 14 M triangles a fifth of building the hierarchy).
+fn deviation_bounds(
+    position: &[Vec3],
+    lo: &[u32],
+    hi: &[u32],
+    internal_children: &[[u32; 2]],
+    position_error: f32,
+) -> Vec<f32> {
+    use rayon::prelude::*;
+    let n = position.len() - lo.len();
+    let mut bound: Vec<f32> = (0..lo.len())
+        .into_par_iter()
+        .map(|k| {
+            let p = position[n + k];
+            position[lo[k] as usize..hi[k] as usize]
+                .iter()
+                .map(|q| (q.distance(p) + 2.0 * position_error) * (1.0 + BOUND_SLACK))
+                .fold(0f32, f32::max)
+                .max(position_error)
+        })
+        .collect();
+    // Pre-order reversed meets children first.
+    for k in (0..lo.len()).rev() {
+        for c in internal_children[k] {
+            let below = if (c as usize) < n {
+                position_error
+            } else {
+                bound[c as usize - n]
+            };
+            bound[k] = bound[k].max(below);
+        }
+    }
+    bound
 }
 
 /// The leaves under each internal node, `lo[k]..hi[k]` (depth-first numbering makes them a range).
