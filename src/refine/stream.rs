@@ -87,6 +87,9 @@ impl Entry {
 /// Entries a run holds at most: a sweep that has written this many starts another.
 pub(super) const RUN: usize = 64;
 
+/// Empty run buffers kept between sweeps for the runs the next one writes.
+const SPARE_RUNS: usize = 256;
+
 /// The front's entries, in leaf order (see the module's text).
 #[derive(Clone, Default)]
 pub(super) struct Stream {
@@ -292,6 +295,8 @@ impl Stream {
         self.out.extend(rest);
         self.runs = std::mem::take(&mut self.out);
         self.next = 0;
+        // Runs joined in passes give back more buffers than a sweep takes: keep a sweep's worth.
+        self.spare.truncate(SPARE_RUNS);
         self.len = self.runs.iter().map(Vec::len).sum();
     }
 
