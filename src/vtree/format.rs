@@ -150,6 +150,7 @@ fn write_to(
     let base_sections = sections.len();
     let (mut uvtx, mut texs) = (Vec::new(), Vec::new());
     if let Some(a) = &tree.appearance {
+        uvtx.reserve_exact(12 * a.uvs.len());
         for (uv, t) in a.uvs.iter().zip(&a.texture_of) {
             uvtx.extend_from_slice(&uv[0].to_le_bytes());
             uvtx.extend_from_slice(&uv[1].to_le_bytes());
@@ -172,18 +173,9 @@ fn write_to(
         sections.push(&matl);
         tags.push(OPTIONAL[2]);
     }
-    let mut wedg = Vec::new();
-    if let Some(w) = &tree.wedges {
-        wedg.extend_from_slice(&(w.len() as u32).to_le_bytes());
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.node));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.parent));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.uv));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.texture));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.material));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.color));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.normal));
-        wedg.extend_from_slice(bytemuck::cast_slice(&w.corners));
-        sections.push(&wedg);
+    let wedg = tree.wedges.as_ref().map(wedge_section);
+    if let Some(w) = &wedg {
+        sections.push(w);
         tags.push(OPTIONAL[3]);
     }
     let mut tint = Vec::new();
@@ -227,6 +219,21 @@ fn write_to(
         out.write_all(s)?;
     }
     Ok(())
+}
+
+/// The `WEDG` section: the count, then each per-wedge array whole, then the corners.
+fn wedge_section(w: &super::Wedges) -> Vec<u8> {
+    let mut out = Vec::with_capacity(4 + 48 * w.len() + 12 * w.corners.len());
+    out.extend_from_slice(&(w.len() as u32).to_le_bytes());
+    out.extend_from_slice(bytemuck::cast_slice(&w.node));
+    out.extend_from_slice(bytemuck::cast_slice(&w.parent));
+    out.extend_from_slice(bytemuck::cast_slice(&w.uv));
+    out.extend_from_slice(bytemuck::cast_slice(&w.texture));
+    out.extend_from_slice(bytemuck::cast_slice(&w.material));
+    out.extend_from_slice(bytemuck::cast_slice(&w.color));
+    out.extend_from_slice(bytemuck::cast_slice(&w.normal));
+    out.extend_from_slice(bytemuck::cast_slice(&w.corners));
+    out
 }
 
 /// Writes atomically: a temporary file beside `path`, flushed to disk, then renamed over it, so a

@@ -724,18 +724,23 @@ fn appearance_state(
     Vec<u32>,
     Vec<f32>,
 ) {
-    let quadrics_of = |m: &Mesh| match &m.colors {
-        Some(colors) if color_scale > 0.0 => attribute_quadrics(m, colors, color_scale),
+    let quadrics_of = |m: &Mesh, scales: &[f32]| match &m.colors {
+        Some(colors) if color_scale > 0.0 => attribute_quadrics(m, colors, color_scale, scales),
         _ => Vec::new(),
     };
     let Some((input, welded)) = source else {
-        return (quadrics_of(mesh), None, Vec::new(), Vec::new());
+        return (
+            quadrics_of(mesh, &texture_scales(mesh)),
+            None,
+            Vec::new(),
+            Vec::new(),
+        );
     };
     let scales = texture_scales(input);
     let state = wedges::WedgeState::new(
         input,
         welded,
-        quadrics_of(input),
+        quadrics_of(input, &scales),
         scales.clone(),
         color_scale,
     );
@@ -773,13 +778,18 @@ pub(super) fn input_color(c: Vec3) -> Vec3 {
 
 /// Each vertex's attribute quadric (see [`crate::simplify::attribute_quadric`]): its triangles'
 /// summed, about the vertex. The channels in units of length: a colour times `color_scale`,
-/// texture coordinates times [`texture_scales`].
+/// texture coordinates times `scales` (the [`texture_scales`]).
+///
+/// The vertices are cut into [`QUADRIC_BLOCKS`] blocks, each summed on its own core in `f64` from
+/// every triangle with a corner in it (in index order, so each sum is the same bits whatever the
+/// blocks), then rounded about its vertices: no whole-mesh array of 256-byte sums, and a triangle
+/// is computed again only for each other block its corners reach.
 fn attribute_quadrics(
     mesh: &Mesh,
     colors: &[Vec3],
     color_scale: f32,
+    scales: &[f32],
 ) -> Vec<LocalAttributeQuadric> {
-    let scales = texture_scales(mesh);
     let channels = |v: u32| -> [f64; CHANNELS] {
         let textured = mesh
             .texture_of
@@ -795,31 +805,37 @@ fn attribute_quadrics(
         };
         [c.x, c.y, c.z, uv.x * s, uv.y * s].map(f64::from)
     };
-    let mut sums = vec![AttributeQuadric::default(); mesh.positions.len()];
-    // The triangles' quadrics on every core, a chunk at a time (so that they never all sit in
-    // memory, 256 bytes each), summed into their corners on one.
-    let mut chunk = Vec::new();
-    for triangles in mesh.triangles.chunks(1 << 15) {
-        triangles
-            .par_iter()
-            .map(|t| {
-                AttributeQuadric::from_triangle(
-                    t.map(|v| mesh.positions[v as usize]),
-                    t.map(channels),
-                )
-            })
-            .collect_into_vec(&mut chunk);
-        for (t, q) in triangles.iter().zip(&chunk) {
-            for v in t {
-                sums[*v as usize] += *q;
+    let n = mesh.positions.len();
+    let mut out = vec![LocalAttributeQuadric::default(); n];
+    let block = n.div_ceil(QUADRIC_BLOCKS).max(1);
+    out.par_chunks_mut(block).enumerate().for_each(|(b, out)| {
+        let first = (b * block) as u32;
+        let mut sums = vec![AttributeQuadric::default(); out.len()];
+        for t in &mesh.triangles {
+            if !t.iter().any(|&v| v.wrapping_sub(first) < out.len() as u32) {
+                continue;
+            }
+            let q = AttributeQuadric::from_triangle(
+                t.map(|v| mesh.positions[v as usize]),
+                t.map(channels),
+            );
+            for &v in t {
+                if let Some(sum) = sums.get_mut(v.wrapping_sub(first) as usize) {
+                    *sum += q;
+                }
             }
         }
-    }
-    sums.par_iter()
-        .zip(&mesh.positions)
-        .map(|(q, p)| LocalAttributeQuadric::new(&q.shifted(p.as_dvec3())))
-        .collect()
+        for (k, (o, q)) in out.iter_mut().zip(&sums).enumerate() {
+            let p = mesh.positions[first as usize + k];
+            *o = LocalAttributeQuadric::new(&q.shifted(p.as_dvec3()));
+        }
+    });
+    out
 }
+
+/// How many blocks [`attribute_quadrics`] sums the vertices in: enough for every core to have
+/// several, few enough that scanning the triangles once a block costs little beside the sums.
+const QUADRIC_BLOCKS: usize = 16;
 
 /// Per texture, the surface's length per unit of texture space: the square root of the area of
 /// the triangles that use it over their area in texture space (0 for a texture no triangle
@@ -849,4 +865,73 @@ fn texture_scales(mesh: &Mesh) -> Vec<f32> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blocked sums are the plain ones, bit for bit: every vertex's triangles in index order,
+    /// whichever block its triangles' other corners fall in. A 9 × 9 grid of vertices whose
+    /// triangles join vertices far apart in index order (the rows are shuffled), so most reach
+    /// across blocks, with colours and texture coordinates that no linear map fits.
+    #[test]
+    fn blocked_attribute_sums_are_the_plain_sums() {
+        const N: u32 = 9;
+        let row = |y: u32| (y * 5) % N; // a permutation of the rows
+        let id = |x: u32, y: u32| row(y) * N + x;
+        let mut positions = vec![Vec3::ZERO; (N * N) as usize];
+        let mut colors = positions.clone();
+        let mut uvs = vec![glam::Vec2::ZERO; positions.len()];
+        for y in 0..N {
+            for x in 0..N {
+                let (fx, fy) = (x as f32, y as f32);
+                let v = id(x, y) as usize;
+                positions[v] = Vec3::new(fx, fy, (fx * 0.7).sin() * (fy * 0.4).cos());
+                colors[v] = Vec3::new(
+                    (fx * fy * 0.1).fract(),
+                    fy / N as f32,
+                    (fx * 1.3).sin().abs(),
+                );
+                uvs[v] = glam::Vec2::new((fx * fx * 0.01).fract(), fy * 0.1);
+            }
+        }
+        let mut triangles = Vec::new();
+        for y in 0..N - 1 {
+            for x in 0..N - 1 {
+                triangles.push([id(x, y), id(x + 1, y), id(x + 1, y + 1)]);
+                triangles.push([id(x, y), id(x + 1, y + 1), id(x, y + 1)]);
+            }
+        }
+        let mut mesh = Mesh::from_triangles(positions, triangles);
+        mesh.colors = Some(colors.clone());
+        mesh.uvs = Some(uvs);
+        mesh.texture_of = Some(vec![0; mesh.positions.len()]);
+        mesh.textures = vec![std::sync::Arc::new(Vec::new())];
+        let scales = texture_scales(&mesh);
+        assert!(scales[0] > 0.0);
+        let blocked = attribute_quadrics(&mesh, &colors, 0.3, &scales);
+        let mut sums = vec![AttributeQuadric::default(); mesh.positions.len()];
+        for t in &mesh.triangles {
+            let channel = |v: u32| {
+                let (c, uv) = (
+                    colors[v as usize] * 0.3 / 32.0,
+                    mesh.uvs.as_ref().unwrap()[v as usize] * scales[0],
+                );
+                [c.x, c.y, c.z, uv.x, uv.y].map(f64::from)
+            };
+            let q = AttributeQuadric::from_triangle(
+                t.map(|v| mesh.positions[v as usize]),
+                t.map(channel),
+            );
+            for &v in t {
+                sums[v as usize] += q;
+            }
+        }
+        assert!(mesh.positions.len() > QUADRIC_BLOCKS);
+        for (v, (got, sum)) in blocked.iter().zip(&sums).enumerate() {
+            let want = LocalAttributeQuadric::new(&sum.shifted(mesh.positions[v].as_dvec3()));
+            assert_eq!(*got, want, "vertex {v}");
+        }
+    }
 }
