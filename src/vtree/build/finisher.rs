@@ -115,13 +115,15 @@ impl WedgeTurns {
             }
             let end = batch.vanished_ends[i] as usize;
             let merged = &mut batch.nodes[i].1;
-            merged.principal = Some(state.merge(
+            let (quadric, texture, slide) = state.merge(
                 (merged.slot, merged.gone),
                 batch.ids[i],
                 merged.position,
                 batch.vanished[start..end].iter().copied(),
                 batch.joined[i],
-            ));
+            );
+            merged.principal = Some((quadric, texture));
+            merged.slide = slide;
             start = end;
         }
         guard.1 += 1;

@@ -231,8 +231,12 @@ impl Builder<'_> {
     }
 
     /// With wedges, node `u`'s (the merge `merged`, whose vanished triangles are in `removed`):
-    /// its principal wedge's quadric and texture.
-    fn merge_wedges(&mut self, merged: &Merged, u: u32) -> Option<(LocalAttributeQuadric, u32)> {
+    /// its principal wedge's quadric and texture, and the merge's texture slide.
+    fn merge_wedges(
+        &mut self,
+        merged: &Merged,
+        u: u32,
+    ) -> Option<(LocalAttributeQuadric, u32, f32)> {
         let removed = &self.removed;
         self.wedges.as_mut().map(|w| {
             w.merge(
@@ -256,10 +260,13 @@ impl Builder<'_> {
         let pending = self.pending(a, b);
         let mut nodes = std::mem::take(&mut self.nodes);
         let u = nodes.len() as u32;
-        let (mut node, merged) = self.merge_topology(a, b, cand, u, pending);
+        let (mut node, mut merged) = self.merge_topology(a, b, cand, u, pending);
         let survivor = merged.slot;
         let (s, g) = (survivor as usize, merged.gone as usize);
-        let principal = self.merge_wedges(&merged, u);
+        let principal = self.merge_wedges(&merged, u).map(|(q, chart, slide)| {
+            merged.slide = slide;
+            (q, chart)
+        });
         let color = if let Some((q, chart)) = principal {
             self.charts[s] = chart;
             (!self.colors.is_empty()).then_some(q)
@@ -370,6 +377,7 @@ impl Builder<'_> {
             position: cand.position,
             across_gap,
             principal: None,
+            slide: 0.0,
         };
         (node, merged)
     }

@@ -70,6 +70,10 @@ pub(super) struct Merged {
         crate::simplify::attribute_quadric::LocalAttributeQuadric,
         u32,
     )>,
+    /// With wedges, how far the merge slides a texture at the children's places, in length: the
+    /// most, over the wedges joined, between a child wedge's coordinates and the ones the new
+    /// wedge's map gives at the child's place (see `WedgeState::merge`); 0 without.
+    pub(super) slide: f32,
 }
 
 /// The triangles around a live slot, read once: corners and their slots, for the cone, every
@@ -175,7 +179,8 @@ pub(super) fn finish_node(
         node.error = node
             .error
             .max(child.error + distance[pending.len() + k])
-            .max(child.error + color_scale * recolored);
+            .max(child.error + color_scale * recolored)
+            .max(child.error + merged.slide);
     }
     // A merge across a gap draws its children's triangles stretched to the new vertex, over empty
     // space: the measured distances above run from the input to the new surface and miss that

@@ -283,7 +283,9 @@ impl WedgeState {
     /// Slot `a` and slot `b` merge into node `u` at `position`, `vanished` the triangles that
     /// vanish: the wedges of the two become node `u`'s, those at the two merging corners of a
     /// vanishing triangle joined. Returns the new principal's quadric (about `position`) and
-    /// texture.
+    /// texture, and the merge's texture slide: the most any joined wedge's coordinates differ,
+    /// times its texture's scale, from those its new wedge's map gives at the wedge's old place
+    /// (a chart whose map is linear over the surface slides nothing).
     ///
     /// `joined`: a triangle that vanished had corners at both (a degenerate one). When each slot
     /// has one wedge, that alone says whether they join, without following the triangles' leaf
@@ -296,7 +298,7 @@ impl WedgeState {
         position: Vec3,
         vanished: impl Iterator<Item = u32>,
         joined: bool,
-    ) -> (LocalAttributeQuadric, u32) {
+    ) -> (LocalAttributeQuadric, u32, f32) {
         let wa = std::mem::take(&mut self.of_slot[a as usize]);
         let wb = std::mem::take(&mut self.of_slot[b as usize]);
         let all: SmallVec<[u32; 4]> = wa.iter().chain(&wb).copied().collect();
@@ -329,10 +331,13 @@ impl WedgeState {
         let p = position.as_dvec3();
         let mut made: SmallVec<[u32; 2]> = SmallVec::new();
         let mut members: SmallVec<[u32; 4]> = SmallVec::new();
+        let mut slide = 0f32;
         for (k, &(r, w)) in order.iter().enumerate() {
             members.push(w);
             if order.get(k + 1).is_none_or(|&(next, _)| next != r) {
-                made.push(self.join(&members, u, position, p));
+                let (joined, moved) = self.join(&members, u, position, p);
+                made.push(joined);
+                slide = slide.max(moved);
                 members.clear();
             }
         }
@@ -343,6 +348,7 @@ impl WedgeState {
         (
             *self.quadric_of(principal),
             self.texture[principal as usize],
+            slide,
         )
     }
 
@@ -401,8 +407,9 @@ impl WedgeState {
         }
     }
 
-    /// A new wedge of node `u` at `position`, joining `members`.
-    fn join(&mut self, members: &[u32], u: u32, position: Vec3, p: DVec3) -> u32 {
+    /// A new wedge of node `u` at `position`, joining `members`, and how far it slides their
+    /// texture (see [`WedgeState::merge`]).
+    fn join(&mut self, members: &[u32], u: u32, position: Vec3, p: DVec3) -> (u32, f32) {
         let mut sum = self.quadric_of(members[0]).about(self.at_of(members[0]), p);
         for &m in &members[1..] {
             sum += self.quadric_of(m).about(self.at_of(m), p);
@@ -435,6 +442,19 @@ impl WedgeState {
             _ => None,
         }
         .unwrap_or(mean_uv);
+        let slide = if one_texture && scale > 0.0 {
+            members
+                .iter()
+                .filter_map(|&m| {
+                    let mapped = q.texture_at(self.at_of(m).as_dvec3() - p)?;
+                    let own = Vec2::from_array(self.uv[m as usize]).as_dvec2() * scale as f64;
+                    Some(mapped.distance(own) as f32)
+                })
+                .filter(|d| d.is_finite())
+                .fold(0f32, f32::max)
+        } else {
+            0.0
+        };
         let mean_color: Vec3 = members
             .iter()
             .map(|&m| Vec3::from_array(self.color[m as usize]) * share(m))
@@ -471,7 +491,7 @@ impl WedgeState {
             self.parent[m as usize] = w;
             self.rep[m as usize] = w;
         }
-        w
+        (w, slide)
     }
 
     fn weight(&self, w: u32) -> f64 {
@@ -624,4 +644,54 @@ pub(super) fn node_color(
     let textured = principal.is_some_and(|(_, texture)| texture != NO_TEXTURE);
     let scale = super::color_scale_of(color_scale, textured);
     (color_scale, color.and_then(|c| c.best_color(scale as f64)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flat strip of three unit squares, one chart mapped by `map` from the plane:
+    ///
+    /// ```text
+    ///   4 ─ 5 ─ 6 ─ 7    y = 1
+    ///   │ ╱ │ ╱ │ ╱ │
+    ///   0 ─ 1 ─ 2 ─ 3    y = 0
+    /// ```
+    ///
+    /// with vertices 1 and 2 merged at their midpoint; returns the merge's texture slide.
+    fn slide_of_merge(map: impl Fn(Vec3) -> Vec2) -> f32 {
+        let positions: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i % 4) as f32, (i / 4) as f32, 0.0))
+            .collect();
+        let mut triangles = Vec::new();
+        for x in 0..3 {
+            triangles.push([x, x + 1, x + 5]);
+            triangles.push([x, x + 5, x + 4]);
+        }
+        let mut mesh = Mesh::from_triangles(positions, triangles);
+        mesh.uvs = Some(mesh.positions.iter().map(|&p| map(p)).collect());
+        mesh.colors = Some(vec![Vec3::ONE; 8]);
+        mesh.texture_of = Some(vec![0; 8]);
+        mesh.textures = vec![std::sync::Arc::new(Vec::new())];
+        let welded = weld(&mesh);
+        let scales = super::super::texture_scales(&mesh);
+        let quadrics = super::super::attribute_quadrics(&mesh, &[Vec3::ONE; 8], 1.0, &scales);
+        let mut state = WedgeState::new(&mesh, welded, quadrics, scales, 1.0);
+        // Triangle 2 = [1, 2, 6] holds the edge 1–2 and vanishes.
+        let (_, _, slide) =
+            state.merge((1, 2), 8, Vec3::new(1.5, 0.0, 0.0), [2].into_iter(), false);
+        slide
+    }
+
+    /// A linear chart slides nowhere; a bent one (u = (x / 3)²: the strip's middle is mapped
+    /// narrower than its ends) slides, by less than the coordinates' whole spread.
+    #[test]
+    fn a_merge_slides_a_bent_chart_and_not_a_linear_one() {
+        let linear = slide_of_merge(|p| Vec2::new(p.x / 3.0, p.y));
+        assert!(linear < 1e-5, "{linear}");
+        let bent = slide_of_merge(|p| Vec2::new((p.x / 3.0).powi(2), p.y));
+        // The texture's scale: the strip's area 3 over its texture area (Σ of the squares' u
+        // widths 1/9 + 3/9 + 5/9, times 1), so about 1.73 lengths per unit of u.
+        assert!(bent > 0.01 && bent < 1.73, "{bent}");
+    }
 }
