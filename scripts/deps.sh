@@ -17,3 +17,5 @@ ensure_packages() {
 VULKAN_PACKAGES=(mesa-vulkan-drivers libvulkan1)
 # What winit loads at run time for an X11 window (no -dev packages are needed), and Xvfb for tests.
 X11_PACKAGES=(libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
+# What compiles jemalloc, the command's allocator (tikv-jemalloc-sys runs its configure and make).
+BUILD_PACKAGES=(gcc make)

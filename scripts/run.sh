@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/deps.sh
-ensure_packages "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}"
+ensure_packages "${BUILD_PACKAGES[@]}" "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}"
 # wgpu prints a warning on every instance without a runtime directory (harmless; TOOLCHAIN.md).
 if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
   export XDG_RUNTIME_DIR="$(mktemp -d)"

@@ -25,7 +25,7 @@ if [ ! -c /dev/null ]; then
     exit 1
   fi
 fi
-ensure_packages "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}" xvfb
+ensure_packages "${BUILD_PACKAGES[@]}" "${VULKAN_PACKAGES[@]}" "${X11_PACKAGES[@]}" xvfb
 # The Khronos glTF Validator (npm), which the tests run on every glTF file vunify writes.
 command -v npm >/dev/null || ensure_packages nodejs npm
 if [ ! -d tools/npm/node_modules/gltf-validator ]; then

@@ -4,7 +4,7 @@ mod cli;
 #[cfg(target_os = "linux")]
 mod huge_pages;
 
-/// Large blocks on huge pages: 6–8 % off `vunify build`'s wall time on the dragon (medians of
+/// jemalloc, its large blocks on huge pages (`huge_pages`). Huge pages alone: 6–8 % off `vunify build`'s wall time on the dragon (medians of
 /// eight alternating runs), the same peak memory.
 #[cfg(target_os = "linux")]
 #[global_allocator]
