@@ -5,7 +5,7 @@
 
 use super::model::{LoadMessage, Loaded, spawn_load, spawn_within};
 use crate::mesh::{Mesh, Part};
-use crate::refine::{Front, Hierarchy};
+use crate::refine::Front;
 use crate::render::Renderer;
 use crate::simplify::Metric;
 use glam::Vec3;
@@ -48,8 +48,6 @@ pub struct Ready {
     pub loaded: Loaded,
     pub front: Front,
     pub renderer: Renderer,
-    /// Hierarchy id of each internal node in build order.
-    build_order: Vec<u32>,
     /// Merges applied to the front (the root alone: all of them).
     merges: u32,
 }
@@ -141,17 +139,11 @@ impl CompareView {
                     LoadMessage::Done(Ok(loaded)) => {
                         let mut renderer = Renderer::new(device, format);
                         renderer.set_hierarchy(device, queue, &loaded.hierarchy);
-                        let renumber = Hierarchy::renumbering(&loaded.tree);
-                        let n = loaded.tree.leaf_count;
-                        let build_order = (n..loaded.tree.nodes.len() as u32)
-                            .map(|u| renumber[u as usize])
-                            .collect::<Vec<_>>();
-                        let merges = build_order.len() as u32;
+                        let merges = loaded.tree.build_order.len() as u32;
                         slot.ready = Some(Ready {
                             front: Front::new(&loaded.hierarchy),
                             loaded,
                             renderer,
-                            build_order,
                             merges,
                         });
                     }
@@ -167,7 +159,7 @@ impl CompareView {
             .iter()
             .filter(|s| matches!(s.shown, Shown::Metric(_)))
             .filter_map(|s| s.ready.as_ref())
-            .map(|r| r.loaded.tree.triangles.len() as u32)
+            .map(|r| r.loaded.tree.triangles as u32)
             .max()
             .unwrap_or(0);
         if self.sweep && total > 0 {
@@ -201,19 +193,21 @@ impl Ready {
     /// The build-order cut with at most `target` triangles (the one with the fewest merges).
     fn set_triangles(&mut self, target: u32) {
         let tree = &self.loaded.tree;
-        let total = tree.triangles.len() as u32;
+        let total = tree.triangles as u32;
         let offsets = &tree.vanish_offsets;
         // Triangles left after m merges: total − offsets[m]; the fewest merges that reach the target.
         let m = offsets
             .partition_point(|&gone| total - gone > target)
-            .min(self.build_order.len()) as u32;
+            .min(self.loaded.tree.build_order.len()) as u32;
         let h = &self.loaded.hierarchy;
         while self.merges > m {
             self.merges -= 1;
-            self.front.split(h, self.build_order[self.merges as usize]);
+            self.front
+                .split(h, self.loaded.tree.build_order[self.merges as usize]);
         }
         while self.merges < m {
-            self.front.unify(h, self.build_order[self.merges as usize]);
+            self.front
+                .unify(h, self.loaded.tree.build_order[self.merges as usize]);
             self.merges += 1;
         }
     }

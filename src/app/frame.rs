@@ -474,6 +474,6 @@ pub(crate) fn toggle_compare(view: &mut ViewState, on: bool) {
         );
         return;
     }
-    let target = (m.loaded.tree.triangles.len() as u32 / 10).max(1);
+    let target = (m.loaded.tree.triangles as u32 / 10).max(1);
     view.compare = Some(CompareView::new(&m.loaded.path, target));
 }

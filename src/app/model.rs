@@ -15,7 +15,9 @@ use std::sync::mpsc::{Receiver, channel};
 pub struct Loaded {
     pub path: PathBuf,
     pub metric: Metric,
-    pub tree: Arc<VertexTree>,
+    /// What the panel and the comparison view read of the tree; the tree itself is dropped once
+    /// the hierarchy is built (1.4 GB at 14 M triangles that nothing else reads).
+    pub tree: TreeFacts,
     pub hierarchy: Arc<Hierarchy>,
     pub center: Vec3,
     pub radius: f32,
@@ -170,6 +172,32 @@ pub fn load(
     Ok(ready(shown, metric, tree, cached))
 }
 
+/// The tree's counts, and its build order for the comparison view's static cuts.
+pub struct TreeFacts {
+    pub triangles: usize,
+    pub leaf_count: u32,
+    pub parts: usize,
+    /// The internal nodes in the order the build made them, in the hierarchy's numbering.
+    pub build_order: Vec<u32>,
+    /// How many triangles had vanished after each merge ([`VertexTree::vanish_offsets`]).
+    pub vanish_offsets: Vec<u32>,
+}
+
+impl TreeFacts {
+    fn of(tree: VertexTree) -> TreeFacts {
+        let renumber = Hierarchy::renumbering(&tree);
+        TreeFacts {
+            triangles: tree.triangles.len(),
+            leaf_count: tree.leaf_count,
+            parts: tree.parts.len(),
+            build_order: (tree.leaf_count..tree.nodes.len() as u32)
+                .map(|u| renumber[u as usize])
+                .collect(),
+            vanish_offsets: tree.vanish_offsets,
+        }
+    }
+}
+
 fn ready(path: &Path, metric: Metric, tree: VertexTree, cached: bool) -> Loaded {
     let hierarchy = Hierarchy::new(&tree);
     let leaves = &hierarchy.position[..hierarchy.leaf_count as usize];
@@ -178,7 +206,7 @@ fn ready(path: &Path, metric: Metric, tree: VertexTree, cached: bool) -> Loaded 
     Loaded {
         path: path.to_path_buf(),
         metric,
-        tree: Arc::new(tree),
+        tree: TreeFacts::of(tree),
         hierarchy: Arc::new(hierarchy),
         center: (lo + hi) * 0.5,
         radius: ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),

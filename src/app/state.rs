@@ -79,7 +79,7 @@ pub(super) fn install(gfx: &Gfx, view: &mut ViewState, loaded: Loaded, settings:
     view.message = Some(format!(
         "{}: {} triangles, {} vertices{}",
         loaded.path.display(),
-        loaded.tree.triangles.len(),
+        loaded.tree.triangles,
         loaded.tree.leaf_count,
         if loaded.cached {
             " (tree from the cache)"

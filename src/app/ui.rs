@@ -45,9 +45,9 @@ fn file_section(ui: &mut Ui, view: &mut ViewState, settings: &mut ViewerSettings
                 .unwrap_or_default();
             ui.label(format!(
                 "{name}: {} triangles, {} vertices, {} part(s)",
-                m.loaded.tree.triangles.len(),
+                m.loaded.tree.triangles,
                 m.loaded.tree.leaf_count,
-                m.loaded.tree.parts.len().max(1)
+                m.loaded.tree.parts.max(1)
             ));
         }
         None => {
@@ -291,7 +291,7 @@ fn compare_section(ui: &mut Ui, view: &mut ViewState) {
         let total = view
             .model
             .as_ref()
-            .map_or(1, |m| m.loaded.tree.triangles.len() as u32)
+            .map_or(1, |m| m.loaded.tree.triangles as u32)
             .max(1);
         ui.add(
             egui::Slider::new(&mut c.target, 1..=total)
