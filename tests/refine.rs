@@ -248,9 +248,10 @@ fn camera_walks_keep_the_front_exact() {
 }
 
 /// The runtime's hierarchy is built on every core and comes out the same on one: a random scene,
-/// the cessna and a textured scan (wedges).
+/// the cessna and a textured scan (wedges); and the same from a tree handed over, whose nodes go
+/// half-way ([`Hierarchy::from_tree`]).
 #[test]
-fn hierarchies_are_the_same_on_any_number_of_threads() {
+fn hierarchies_are_the_same_on_any_number_of_threads_and_from_a_tree_given_up() {
     let mut meshes = vec![random_scene(9)];
     if let Some(dir) = models_dir() {
         let (cessna, _) =
@@ -265,7 +266,10 @@ fn hierarchies_are_the_same_on_any_number_of_threads() {
     for (k, mesh) in meshes.iter().enumerate() {
         let tree = tree_of(mesh);
         let serial = one.install(|| Hierarchy::new(&tree));
-        assert!(serial == Hierarchy::new(&tree), "mesh {k}");
+        let all = Hierarchy::new(&tree);
+        assert!(serial == all, "mesh {k}");
+        // From a tree given up, whose nodes are let go half-way: the same hierarchy.
+        assert!(Hierarchy::from_tree(tree) == all, "mesh {k}, from_tree");
     }
 }
 

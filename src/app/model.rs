@@ -184,8 +184,9 @@ pub struct TreeFacts {
 }
 
 impl TreeFacts {
-    fn of(tree: VertexTree) -> TreeFacts {
-        let renumber = Hierarchy::renumbering(&tree);
+    /// What the viewer keeps of `tree` (its vanish offsets taken).
+    fn of(tree: &mut VertexTree) -> TreeFacts {
+        let renumber = Hierarchy::renumbering(tree);
         TreeFacts {
             triangles: tree.triangles.len(),
             leaf_count: tree.leaf_count,
@@ -193,20 +194,21 @@ impl TreeFacts {
             build_order: (tree.leaf_count..tree.nodes.len() as u32)
                 .map(|u| renumber[u as usize])
                 .collect(),
-            vanish_offsets: tree.vanish_offsets,
+            vanish_offsets: std::mem::take(&mut tree.vanish_offsets),
         }
     }
 }
 
-fn ready(path: &Path, metric: Metric, tree: VertexTree, cached: bool) -> Loaded {
-    let hierarchy = Hierarchy::new(&tree);
+fn ready(path: &Path, metric: Metric, mut tree: VertexTree, cached: bool) -> Loaded {
+    let facts = TreeFacts::of(&mut tree);
+    let hierarchy = Hierarchy::from_tree(tree);
     let leaves = &hierarchy.position[..hierarchy.leaf_count as usize];
     let lo = leaves.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
     let hi = leaves.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
     Loaded {
         path: path.to_path_buf(),
         metric,
-        tree: TreeFacts::of(tree),
+        tree: facts,
         hierarchy: Arc::new(hierarchy),
         center: (lo + hi) * 0.5,
         radius: ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),

@@ -156,6 +156,17 @@ pub(crate) const OCT_ERROR_RADIANS: f32 = 2e-3;
 
 impl Hierarchy {
     pub fn new(tree: &VertexTree) -> Hierarchy {
+        Hierarchy::build(std::borrow::Cow::Borrowed(tree))
+    }
+
+    /// [`Hierarchy::new`] of a tree no longer needed: its nodes (84 bytes each, 1.2 GB at 14 M
+    /// triangles) are let go as soon as their data is read, before the triangles are grouped,
+    /// which is when building the hierarchy holds the most.
+    pub fn from_tree(tree: VertexTree) -> Hierarchy {
+        Hierarchy::build(std::borrow::Cow::Owned(tree))
+    }
+
+    fn build(mut tree: std::borrow::Cow<'_, VertexTree>) -> Hierarchy {
         // Every per-node and per-triangle pass below runs on all cores (each gathers from the
         // tree's nodes in a new order, a cache miss a read: at 14 M triangles this was most of the
         // time before a model's first frame); results are the same on any number of threads.
@@ -163,7 +174,7 @@ impl Hierarchy {
         let n_leaves = n;
         let count = tree.nodes.len();
         let old = &tree.nodes;
-        let (new_id, old_of) = depth_first_ids(tree);
+        let (new_id, old_of) = depth_first_ids(&tree);
         let node = |id: u32| &old[old_of[id as usize] as usize];
         let renumber = |u: u32| if u == NIL { NIL } else { new_id[u as usize] };
         let position: Vec<Vec3> = (0..count as u32)
@@ -174,12 +185,12 @@ impl Hierarchy {
             .into_par_iter()
             .map(|u| renumber(node(u).parent))
             .collect();
-        let normal = (0..count as u32)
+        let normal: Vec<[i16; 2]> = (0..count as u32)
             .into_par_iter()
             .map(|u| encode_normal(Vec3::from_array(node(u).normal)))
             .collect();
-        let color = colors_of(tree, &old_of);
-        let (uv_texture, textures, materials, layer) = appearance_of(tree, &old_of);
+        let color = colors_of(&tree, &old_of);
+        let (uv_texture, textures, materials, layer) = appearance_of(&tree, &old_of);
         let internal: Vec<&crate::vtree::Node> =
             (n..count as u32).into_par_iter().map(node).collect();
         let internal_children: Vec<[u32; 2]> = internal
@@ -228,13 +239,24 @@ impl Hierarchy {
         // A one-sided mesh (a lit room, seen from inside) means its winding even when its volume is
         // negative; anything else seen from outside is taken to be wound inward when it is.
         let inward = !tree.one_sided && signed_volume(&tree.nodes, &tree.triangles) < 0.0;
-        let keyed = keyed_triangles(tree, &new_id, &parent, &lo, &hi);
+        let internal_bounds = bounds_of(
+            &internal,
+            [&deviation, &internal_radius, &internal_shading],
+            inward,
+        );
+        drop(internal);
+        let diagonal = tree.diagonal();
+        if let std::borrow::Cow::Owned(t) = &mut tree {
+            t.nodes = Vec::new();
+            t.vanish_offsets = Vec::new();
+        }
+        let keyed = keyed_triangles(&tree, &new_id, &parent, &lo, &hi);
         internal_nodes.push(Internal::default());
         for (node, &appear) in internal_nodes.iter_mut().zip(&keyed.start) {
             node.appear = appear;
         }
         let (color, uv_texture, wedges) = match &tree.wedges {
-            Some(w) => wedge_vertices(tree, w, &new_id, &keyed, &layer),
+            Some(w) => wedge_vertices(&tree, w, &new_id, &normal, &keyed, &layer),
             None => (color, uv_texture, None),
         };
         let triangles = keyed
@@ -246,9 +268,6 @@ impl Hierarchy {
                 )
             })
             .collect();
-        let flip = if inward { -1.0 } else { 1.0 };
-        let internal_cone: Vec<([i16; 2], f32)> =
-            internal.par_iter().map(|x| runtime_cone(x, flip)).collect();
 
         Hierarchy {
             leaf_count: n,
@@ -259,24 +278,13 @@ impl Hierarchy {
             uv_texture,
             textures,
             materials,
-            internal_bounds: internal
-                .par_iter()
-                .enumerate()
-                .map(|(k, x)| Bounds {
-                    bound: deviation[k],
-                    radius: internal_radius[k],
-                    error: x.error,
-                    shading: internal_shading[k],
-                    cone_axis: internal_cone[k].0,
-                    cone_sin: internal_cone[k].1,
-                })
-                .collect(),
+            internal_bounds,
             internal: internal_nodes,
             triangles,
             wedges,
             inward,
             one_sided: tree.one_sided,
-            diagonal: tree.diagonal(),
+            diagonal,
         }
     }
 
@@ -507,6 +515,31 @@ fn depth_first_ids(tree: &VertexTree) -> (Vec<u32>, Vec<u32>) {
         }
     }
     (new_id, old_of)
+}
+
+/// Each internal node's [`Bounds`] from its node in the tree and its `[bound, radius, shading]`,
+/// the cone turned inside out when the mesh winds `inward`.
+fn bounds_of(
+    internal: &[&crate::vtree::Node],
+    [bound, radius, shading]: [&[f32]; 3],
+    inward: bool,
+) -> Vec<Bounds> {
+    let flip = if inward { -1.0 } else { 1.0 };
+    internal
+        .par_iter()
+        .enumerate()
+        .map(|(k, x)| {
+            let (cone_axis, cone_sin) = runtime_cone(x, flip);
+            Bounds {
+                bound: bound[k],
+                radius: radius[k],
+                error: x.error,
+                shading: shading[k],
+                cone_axis,
+                cone_sin,
+            }
+        })
+        .collect()
 }
 
 /// The tree's triangles in the hierarchy's order: grouped by `d(t)`, in index order within a group.
@@ -836,19 +869,20 @@ fn wedge_vertices(
     tree: &VertexTree,
     w: &crate::vtree::Wedges,
     new_id: &[u32],
+    normal: &[[i16; 2]],
     keyed: &Keyed,
     layer: &[f32],
 ) -> (Vec<[u8; 4]>, Vec<[f32; 4]>, Option<HierarchyWedges>) {
     let (mut hw, renumbered) = wedges_of(w, new_id, keyed);
     hw.normal = vec![NO_NORMAL; w.len()];
     for (old, &new) in renumbered.iter().enumerate() {
+        // A wedge without a normal of its own shows its node's (`normal`, in the new ids).
         let own = Vec3::from_array(w.normal[old]);
-        let n = if own == Vec3::ZERO {
-            Vec3::from_array(tree.nodes[w.node[old] as usize].normal)
+        hw.normal[new as usize] = if own == Vec3::ZERO {
+            normal[new_id[w.node[old] as usize] as usize]
         } else {
-            own
+            encode_normal(own)
         };
-        hw.normal[new as usize] = encode_normal(n);
     }
     if !w.tint.is_empty() {
         hw.tint = vec![[255; 4]; w.len()];
