@@ -259,15 +259,7 @@ impl Hierarchy {
             Some(w) => wedge_vertices(&tree, w, &new_id, &normal, &keyed, &layer),
             None => (color, uv_texture, None),
         };
-        let triangles = keyed
-            .iter()
-            .map(|(t, outside)| {
-                rotated(
-                    tree.triangles[t as usize].map(|v| new_id[v as usize]),
-                    outside,
-                )
-            })
-            .collect();
+        let triangles = keyed.arrange(&tree.triangles, &new_id);
 
         Hierarchy {
             leaf_count: n,
@@ -553,17 +545,18 @@ struct Keyed {
 }
 
 impl Keyed {
-    /// The groups in order, each triangle as `(tree triangle, outside corner)`.
-    fn iter(&self) -> impl IndexedParallelIterator<Item = (u32, usize)> + '_ {
+    /// Per-triangle `corners` (the tree's triangles, or their wedges) in this order, each renamed
+    /// by `renumber` and rotated so that its outside corner comes last.
+    fn arrange(&self, corners: &[[u32; 3]], renumber: &[u32]) -> Vec<[u32; 3]> {
         self.order
             .par_iter()
-            .map(|&t| (t, self.outside[t as usize] as usize))
+            .map(|&t| {
+                let c = corners[t as usize].map(|x| renumber[x as usize]);
+                let outside = self.outside[t as usize] as usize;
+                [c[(outside + 1) % 3], c[(outside + 2) % 3], c[outside]]
+            })
+            .collect()
     }
-}
-
-/// `c` with its corner `outside` moved last, the others keeping their cyclic order.
-fn rotated<T: Copy>(c: [T; 3], outside: usize) -> [T; 3] {
-    [c[(outside + 1) % 3], c[(outside + 2) % 3], c[outside]]
 }
 
 /// Every triangle's `d(t)` in this numbering and its outside corner, and the triangles grouped by
@@ -840,15 +833,7 @@ fn wedges_of(
             renumbered[p as usize]
         };
     }
-    let corners = keyed
-        .iter()
-        .map(|(t, outside)| {
-            rotated(
-                w.corners[t as usize].map(|x| renumbered[x as usize]),
-                outside,
-            )
-        })
-        .collect();
+    let corners = keyed.arrange(&w.corners, &renumbered);
     (
         HierarchyWedges {
             start,
