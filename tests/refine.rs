@@ -910,3 +910,98 @@ fn strict_fronts_keep_every_point_within_tau() {
         }
     }
 }
+
+/// A slow walk: the camera drifts a little each frame, as in a viewer flown by hand, with a jump
+/// now and then, so that many entries' margins outlast a frame (the fast walk above spends them
+/// at once).
+fn slow_walk(h: &Hierarchy, seed: u64, frames: usize) -> Vec<Camera> {
+    let (c, r) = bounds(h);
+    let mut rng = Rng(seed);
+    let (mut dir, mut distance, mut target) = (Vec3::new(1.0, 0.3, 0.8), 2.0, c);
+    let mut velocity = Vec3::ZERO;
+    (0..frames)
+        .map(|i| {
+            if i % 150 == 0 {
+                dir = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+                distance = 0.3 + 3.0 * rng.f32();
+                target = c + Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * r;
+                velocity = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * 0.004;
+            }
+            dir += velocity;
+            distance = (distance * (0.995 + 0.01 * rng.f32())).clamp(0.1, 6.0);
+            camera_at(h, dir, distance, target)
+        })
+        .collect()
+}
+
+/// Entries are weighed only when their margin has run out (`stream::Stream::changing`): along
+/// fast and slow walks, turning and moving, with each test on and off and with geomorphs, on
+/// two-sided and one-sided models, the front after every frame is the one a runtime weighing
+/// every entry every frame has: the same active nodes, the same triangles. (Amortised, the two
+/// differ by design: an entry passed by its margin costs no visit. `camera_walks_keep_the_front_exact`
+/// checks those fronts.)
+#[test]
+fn margins_change_no_front() {
+    let base = Settings {
+        tolerance_px: 1.5,
+        ..Default::default()
+    };
+    let off = |f: fn(&mut Tests)| {
+        let mut s = base;
+        f(&mut s.tests);
+        s
+    };
+    let settings = [
+        base,
+        off(|t| t.frustum = false),
+        off(|t| t.normal = false),
+        off(|t| t.shading = false),
+        off(|t| t.screen_error = false),
+        off(|t| t.strict = true),
+        Settings {
+            geomorph_frames: 4,
+            ..base
+        },
+    ];
+    let mut one_sided = random_scene(12);
+    one_sided.one_sided = true;
+    let bumps = grid(28, 28, |x, y| (x * 0.4).sin() * (y * 0.3).cos() * 2.0);
+    for (m, mesh) in [random_scene(11), one_sided, bumps].iter().enumerate() {
+        let tree = tree_of(mesh);
+        let h = Hierarchy::new(&tree);
+        for (k, settings) in settings.iter().enumerate() {
+            let walks = [
+                camera_walk(&h, 40 + k as u64, 300),
+                slow_walk(&h, 50 + k as u64, 600),
+            ];
+            for (w, walk) in walks.iter().enumerate() {
+                let mut weighed = Refiner::new(&h, *settings);
+                weighed.set_margins(false);
+                let mut margins = Refiner::new(&h, *settings);
+                for (i, camera) in walk.iter().enumerate() {
+                    let (a, b) = (weighed.update(&h, camera), margins.update(&h, camera));
+                    let at = format!("model {m}, settings {k}, walk {w}, frame {i}");
+                    assert_eq!(a.triangles, b.triangles, "{at}");
+                    let (mut x, mut y) = (weighed.front.active(), margins.front.active());
+                    x.sort_unstable();
+                    y.sort_unstable();
+                    assert_eq!(x, y, "{at}");
+                    let drawn = |r: &Refiner| {
+                        let mut t: Vec<[u32; 3]> = r
+                            .front
+                            .indices()
+                            .iter()
+                            .map(|&t| sorted_rotation(t))
+                            .collect();
+                        t.sort_unstable();
+                        t
+                    };
+                    assert_eq!(drawn(&weighed), drawn(&margins), "{at}");
+                    if i % 100 == 0 {
+                        check_refiner(&h, &margins).unwrap_or_else(|e| panic!("{at}: {e}"));
+                    }
+                }
+            }
+        }
+    }
+}

@@ -4,7 +4,7 @@
 use super::criteria::{Camera, NodeView, Tests, View};
 use super::front::Front;
 use super::hierarchy::{Hierarchy, NIL};
-use super::stream::{Entry, Stream};
+use super::stream::{EXPIRED, Entry, Stream};
 use super::trace::OpClock;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -121,6 +121,13 @@ pub struct Refiner {
     clock: OpClock,
     /// Splits refused this frame because they would exceed the budget.
     refused: usize,
+    /// How far the camera has travelled, by the measure the entries' margins are in: each frame
+    /// adds the eye's move plus its turn times the farthest the model reaches from the eye.
+    odometer: f64,
+    /// The camera, τ and settings the odometer last measured from.
+    travelled_from: Option<(Camera, f32, Settings)>,
+    /// Entries are weighed only when their margin runs out (off: every frame weighs every one).
+    margins: bool,
 }
 
 impl Refiner {
@@ -145,6 +152,9 @@ impl Refiner {
             last_view: None,
             clock: OpClock::default(),
             refused: 0,
+            odometer: 0.0,
+            travelled_from: None,
+            margins: true,
         }
     }
 
@@ -233,6 +243,7 @@ impl Refiner {
             self.last_view = this_view;
         }
         self.refused = 0;
+        let all = self.travel(h, camera, tau);
         let mut frame = Frame {
             view,
             tau,
@@ -242,6 +253,12 @@ impl Refiner {
             },
             limit: self.settings.visit_limit.unwrap_or(usize::MAX),
             deadline: self.settings.time_limit.map(|t| start + t),
+            now: self.odometer as f32,
+            all,
+            slack: 1e-5
+                * (camera.position.abs().max_element()
+                    + h.position[h.root() as usize].abs().max_element()
+                    + h.radius(h.root())),
         };
         let mut visited = 0usize;
         let mut converged = false;
@@ -293,6 +310,66 @@ impl Refiner {
         }
     }
 
+    /// Moves the odometer on by how far the camera travelled since the last frame; returns
+    /// whether every entry must be weighed this frame instead (the first frame, another τ, field
+    /// of view, viewport, clip planes or settings, budget mode, or margins turned off).
+    ///
+    /// Every test but the frustum's reads only the eye's distance and direction to a sphere, and
+    /// moving the eye by `δ` changes those as growing or shrinking the sphere by `δ` does. A frustum
+    /// plane's signed distance to a point `x` changes by at most the eye's move plus the turn `θ`
+    /// times `|x − eye|`, and every node's centre lies within the root's sphere. So a frame adds
+    /// `|Δeye| + θ · (|eye − c_root| + r_root)`, and an entry weighed with margin `m` at odometer
+    /// `t` cannot change before the odometer passes `t + m`.
+    fn travel(&mut self, h: &Hierarchy, camera: &Camera, tau: f32) -> bool {
+        let from = self.travelled_from.replace((*camera, tau, self.settings));
+        let same = |a: &Camera| {
+            a.fov_y_radians == camera.fov_y_radians
+                && a.viewport_px == camera.viewport_px
+                && a.near == camera.near
+                && a.far == camera.far
+        };
+        let step = match from {
+            Some((a, t, s))
+                if self.margins
+                    && self.settings.mode == Mode::Tolerance
+                    && t == tau
+                    && s == self.settings
+                    && same(&a) =>
+            {
+                let (c, r) = (h.position[h.root() as usize], h.radius(h.root()));
+                let moved = a.position.as_dvec3().distance(camera.position.as_dvec3());
+                let cos = a
+                    .orientation
+                    .normalize()
+                    .dot(camera.orientation.normalize());
+                let turn = 2.0 * f64::from(cos.abs()).min(1.0).acos();
+                let reach = f64::from(a.position.distance(c).max(camera.position.distance(c)) + r);
+                moved + turn * reach * 1.001
+            }
+            _ => f64::INFINITY,
+        };
+        // Far past the margins' scale, f32 would round them away: start again from zero.
+        if step.is_finite() && self.odometer + step < 1e3 * f64::from(h.diagonal.max(1e-30)) {
+            self.odometer += step;
+            // Rounded up, so that no margin outlasts the travel it was given.
+            let now = self.odometer as f32;
+            if f64::from(now) < self.odometer {
+                self.odometer = f64::from(now.next_up());
+            }
+            false
+        } else {
+            self.odometer = 0.0;
+            self.stream.expire();
+            true
+        }
+    }
+
+    /// Turns margins off (every frame weighs every entry) or on; for tests comparing the two.
+    #[doc(hidden)]
+    pub fn set_margins(&mut self, on: bool) {
+        self.margins = on;
+    }
+
     /// Whether one whole sweep leaves the front as the next would: in tolerance mode, without a
     /// cap and with no geomorph under way. Every entry written was weighed for a split after its
     /// own data and for a unify with its left neighbour, and the two tests agree (a node split
@@ -322,10 +399,17 @@ impl Refiner {
     fn sweep(&mut self, h: &Hierarchy, frame: &Frame, limit: usize) -> usize {
         // Which runs may change, found on every core first (not while a geomorph is under way,
         // which a visit moves on whatever its tests say).
+        let settings = self.settings;
         let changing = self.morphs.is_empty().then(|| {
-            let flags = self
-                .stream
-                .changing(|e, left| self.may_change(h, frame, e, left));
+            let flags = self.stream.changing(frame.now, frame.all, |e, paired| {
+                let settled = Refiner::settled(&settings, h, frame, e, paired);
+                #[cfg(debug_assertions)]
+                debug_assert_eq!(
+                    settled.is_none(),
+                    Refiner::may_change(&settings, h, frame, e, paired)
+                );
+                settled
+            });
             let lefts: Vec<u32> = (0..flags.len())
                 .map(|k| self.stream.left_of_run(k))
                 .collect();
@@ -334,6 +418,8 @@ impl Refiner {
         let mut run = self.cursor;
         self.stream.begin(self.cursor);
         let mut visits = 0usize;
+        // The last visit changed the front: the next entry's left neighbour is new.
+        let mut after_change = false;
         let stop = |visits: usize| {
             visits >= limit
                 || (visits % 256 == 255 && frame.deadline.is_some_and(|d| Instant::now() >= d))
@@ -357,11 +443,23 @@ impl Refiner {
                 if stop(visits) {
                     break 'runs;
                 }
-                let Some(e) = self.children.pop().or_else(|| self.stream.next()) else {
-                    break;
+                let (e, until) = match self.children.pop() {
+                    Some(child) => (child, EXPIRED),
+                    None => match self.stream.next() {
+                        Some(next) => next,
+                        None => break,
+                    },
                 };
+                // Nothing can change an entry before its time, unless its left neighbour is new
+                // (it may now pair with its sibling): it is written back unweighed.
+                if changing.is_some() && !after_change && until > frame.now {
+                    self.stream.push_until(e, until);
+                    self.quiet_visits += 1;
+                    continue;
+                }
                 visits += 1;
-                if self.visit(h, frame, e) {
+                after_change = self.visit(h, frame, e);
+                if after_change {
                     self.quiet_visits = 0;
                 } else {
                     self.quiet_visits += 1;
@@ -379,19 +477,81 @@ impl Refiner {
         visits
     }
 
-    /// Whether a visit to entry `e`, after `left`, could change the front: its node would split
-    /// or, beside its sibling, their parent unify (the visit's tests, with a one-sided model's walk
-    /// of triangles taken as a yes).
-    fn may_change(&self, h: &Hierarchy, frame: &Frame, e: &Entry, left: Option<&Entry>) -> bool {
-        let (tests, view, tau) = (&self.settings.tests, &frame.view, frame.tau);
+    /// Whether a visit to entry `e` could change the front: its node would split or, beside its
+    /// sibling (`paired`: its left neighbour is), their parent unify (the visit's tests, with a
+    /// one-sided model's walk of triangles taken as a yes).
+    #[cfg(debug_assertions)]
+    fn may_change(
+        settings: &Settings,
+        h: &Hierarchy,
+        frame: &Frame,
+        e: &Entry,
+        paired: bool,
+    ) -> bool {
+        let (tests, view, tau) = (&settings.tests, &frame.view, frame.tau);
         let split = !h.is_leaf(e.node)
             && tests.projected(view, &e.own) > tau
             && (h.one_sided || tests.sees(view, &e.own));
-        let unify = left.is_some_and(|l| e.pairs_with(l))
+        let unify = paired
             && ((tests.screen_error
-                && tests.projected(view, &e.up) < tau * (1.0 - self.settings.hysteresis))
+                && tests.projected(view, &e.up) < tau * (1.0 - settings.hysteresis))
                 || !tests.sees(view, &e.up));
         split || unify
+    }
+
+    /// `None` when a visit to entry `e` could change the front: its node would split or, beside
+    /// its sibling (`paired`: its left neighbour is), their parent unify (the visit's tests, with
+    /// a one-sided model's walk of triangles taken as a yes). Else how far the camera may travel
+    /// (the odometer's measure, see [`Refiner::travel`]) before a visit could: each test answers
+    /// the same while the eye moves less than its margin (see [`View::below_margin`] and its
+    /// neighbours), so the split stays refused while either of its conditions stays false, and
+    /// the unify while both of its stay false. The strict bound reads the view's depth, which
+    /// turns with the camera: there every frame weighs every entry, as without margins.
+    fn settled(
+        settings: &Settings,
+        h: &Hierarchy,
+        frame: &Frame,
+        e: &Entry,
+        paired: bool,
+    ) -> Option<f32> {
+        let (tests, view, tau) = (&settings.tests, &frame.view, frame.tau);
+        let mut margin = f32::INFINITY;
+        if !h.is_leaf(e.node) {
+            let n = &e.own;
+            let near = tests.projected(view, n) > tau;
+            let (sees, sees_margin) = match h.one_sided {
+                true => (true, 0.0),
+                false => tests.sees_with_margin(view, n),
+            };
+            if near && sees {
+                return None;
+            }
+            let mut split = 0f32;
+            if !near && !tests.strict {
+                split = view.below_margin(n.error, n.center, n.radius, tau);
+            }
+            if !sees {
+                split = split.max(sees_margin);
+            }
+            margin = split;
+        }
+        if paired {
+            let n = &e.up;
+            let px = tau * (1.0 - settings.hysteresis);
+            let coarse = tests.screen_error && tests.projected(view, n) < px;
+            let (sees, sees_margin) = tests.sees_with_margin(view, n);
+            if coarse || !sees {
+                return None;
+            }
+            margin = margin.min(sees_margin);
+            if tests.screen_error {
+                margin = margin.min(view.above_margin(n.error, n.center, n.radius, px));
+            }
+        }
+        if tests.strict {
+            return Some(0.0);
+        }
+        Some((margin - frame.slack).max(0.0))
     }
 
     /// Decides about the active node of entry `e`, writing what stands there now to the stream
@@ -618,4 +778,10 @@ struct Frame {
     /// At most this many visits.
     limit: usize,
     deadline: Option<Instant>,
+    /// The odometer this frame (see [`Refiner::update`]).
+    now: f32,
+    /// Every entry is weighed, whatever its margin: the view changed otherwise than by a move.
+    all: bool,
+    /// Taken off every margin, against the rounding of the tests' own arithmetic.
+    slack: f32,
 }

@@ -153,6 +153,69 @@ impl View {
         error * self.px_per_unit / d
     }
 
+    /// [`View::outside`], and how far the eye may move before it can give another answer: each
+    /// plane's signed distance to the centre changes by at most the eye's move (and by the turn
+    /// times the distance, see `Refiner`'s odometer). Inside every plane, the least room to any of
+    /// them; outside one, the most room back over any plane it is outside of.
+    #[inline]
+    pub fn outside_with_margin(&self, center: Vec3, radius: f32) -> (bool, f32) {
+        let (mut inside, mut outside) = (f32::INFINITY, 0f32);
+        let mut out = false;
+        for p in &self.planes {
+            // `x + r < 0` exactly when `x < −r`, as `outside` asks: the sum's sign never rounds.
+            let room = p.truncate().dot(center) + p.w + radius;
+            if room < 0.0 {
+                out = true;
+                outside = outside.max(-room);
+            } else {
+                inside = inside.min(room);
+            }
+        }
+        (out, if out { outside } else { inside })
+    }
+
+    /// How far the eye may move before [`View::back_facing`] of this sphere and cone can give
+    /// another answer. With `β` the angle between the cone's axis and the direction to the centre
+    /// (distance `d`), the test holds exactly when `r / d ≤ cos(θ + β)`. Moving the eye by `δ`
+    /// only ever sees directions into the same sphere grown by `δ` (and always all those into it
+    /// shrunk by `δ`), so a facing-away sphere stays so while `r + δ ≤ d cos(θ + β)`, and one that
+    /// is not while `r − δ > d cos(θ + β)`.
+    #[inline]
+    pub fn facing_margin(&self, center: Vec3, radius: f32, axis: Vec3, sin_t: f32) -> f32 {
+        if sin_t >= 1.0 {
+            return f32::INFINITY;
+        }
+        let v = center - self.eye;
+        let d = v.length();
+        if d == 0.0 {
+            return radius;
+        }
+        let cos_b = (axis.dot(v) / d).clamp(-1.0, 1.0);
+        let sin_b = (1.0 - cos_b * cos_b).max(0.0).sqrt();
+        let cos_t = (1.0 - sin_t * sin_t).sqrt();
+        let edge = d * (cos_t * cos_b - sin_t * sin_b).max(0.0);
+        (edge - radius).abs()
+    }
+
+    /// How far the eye may move before [`View::projected_px`] of this node can pass `px`, while it
+    /// is at most `px`: the sphere's nearest point must come within `error · f / px` of the eye.
+    #[inline]
+    pub fn below_margin(&self, error: f32, center: Vec3, radius: f32, px: f32) -> f32 {
+        let reach = error * self.px_per_unit / px;
+        if reach < self.near {
+            // Even at the near plane, where the distance stops shrinking, it stays below.
+            return f32::INFINITY;
+        }
+        (center.distance(self.eye) - radius - reach).max(0.0)
+    }
+
+    /// How far the eye may move before [`View::projected_px`] of this node can drop below `px`,
+    /// while it is at least `px`: the sphere's nearest point must move past `error · f / px`.
+    #[inline]
+    pub fn above_margin(&self, error: f32, center: Vec3, radius: f32, px: f32) -> f32 {
+        (error * self.px_per_unit / px - (center.distance(self.eye) - radius)).max(0.0)
+    }
+
     /// Whether triangle `[a, b, c]` lies wholly outside the view: all three corners outside one
     /// plane (conservative: a triangle across a frustum corner may be called inside).
     pub fn triangle_outside(&self, corners: [Vec3; 3]) -> bool {
@@ -270,6 +333,32 @@ impl Tests {
     #[inline]
     pub fn outside(&self, view: &View, n: &NodeView) -> bool {
         self.frustum && view.outside(n.center, n.radius)
+    }
+
+    /// [`Tests::sees`], and how far the eye may move before it can give another answer (see
+    /// [`View::outside_with_margin`] and [`View::facing_margin`]): a node seen stays so while
+    /// neither culling test comes to hold, a culled one while one that holds still does.
+    #[inline]
+    pub fn sees_with_margin(&self, view: &View, n: &NodeView) -> (bool, f32) {
+        let (outside, outside_margin) = match self.frustum {
+            true => view.outside_with_margin(n.center, n.radius),
+            false => (false, f32::INFINITY),
+        };
+        let (away, away_margin) = if self.normal && !self.strict {
+            let axis = decode_normal(n.cone_axis);
+            (
+                view.back_facing(n.center, n.radius, axis, n.cone_sin),
+                view.facing_margin(n.center, n.radius, axis, n.cone_sin),
+            )
+        } else {
+            (false, f32::INFINITY)
+        };
+        match (outside, away) {
+            (false, false) => (true, outside_margin.min(away_margin)),
+            (true, false) => (false, outside_margin),
+            (false, true) => (false, away_margin),
+            (true, true) => (false, outside_margin.max(away_margin)),
+        }
     }
 
     /// The normal test: every normal of the node's cone faces away from the eye. Under the

@@ -90,20 +90,79 @@ pub(super) const RUN: usize = 64;
 /// Empty run buffers kept between sweeps for the runs the next one writes.
 const SPARE_RUNS: usize = 256;
 
+/// Runs ahead whose margins a frame's weighing asks for.
+const AHEAD: usize = 4;
+
+/// An entry's `until` when nothing is known: it is weighed in the next frame.
+pub(super) const EXPIRED: f32 = f32::NEG_INFINITY;
+
+/// A run of entries and, beside each, until when nothing can change it (see [`Stream::changing`]):
+/// a value of the refiner's odometer, kept apart from the entries so that a frame reads 4 bytes
+/// an entry to find the few it must weigh.
+#[derive(Clone, Default)]
+struct Run {
+    entries: Vec<Entry>,
+    until: Vec<f32>,
+}
+
+impl Run {
+    fn with_capacity(n: usize) -> Run {
+        Run {
+            entries: Vec::with_capacity(n),
+            until: Vec::with_capacity(n),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    fn clear(&mut self) {
+        self.entries.clear();
+        self.until.clear();
+    }
+
+    fn push(&mut self, e: Entry, until: f32) {
+        self.entries.push(e);
+        self.until.push(until);
+    }
+
+    fn pop(&mut self) -> bool {
+        self.until.pop();
+        self.entries.pop().is_some()
+    }
+
+    fn append(&mut self, other: &Run) {
+        self.entries.extend_from_slice(&other.entries);
+        self.until.extend_from_slice(&other.until);
+    }
+
+    fn tail(&self, from: usize) -> Run {
+        Run {
+            entries: self.entries[from..].to_vec(),
+            until: self.until[from..].to_vec(),
+        }
+    }
+}
+
 /// The front's entries, in leaf order (see the module's text).
 #[derive(Clone, Default)]
 pub(super) struct Stream {
     /// Between sweeps, the front; during one, the runs still to read are `runs[next..]`.
-    runs: Vec<Vec<Entry>>,
+    runs: Vec<Run>,
     next: usize,
     /// During a sweep: the runs written, the run being written, and the run being read (its
     /// entries from `read` on still to read).
-    out: Vec<Vec<Entry>>,
-    open: Vec<Entry>,
-    reading: Vec<Entry>,
+    out: Vec<Run>,
+    open: Run,
+    reading: Run,
     read: usize,
     /// Buffers of runs read to their end, for runs written.
-    spare: Vec<Vec<Entry>>,
+    spare: Vec<Run>,
     /// Entries between sweeps.
     len: usize,
     /// The tests the entries' view data were gathered for.
@@ -121,7 +180,13 @@ impl Stream {
 
     fn of_entries(entries: &[Entry], tests: Tests) -> Stream {
         Stream {
-            runs: entries.chunks(RUN).map(<[Entry]>::to_vec).collect(),
+            runs: entries
+                .chunks(RUN)
+                .map(|c| Run {
+                    entries: c.to_vec(),
+                    until: vec![EXPIRED; c.len()],
+                })
+                .collect(),
             len: entries.len(),
             tests,
             ..Stream::default()
@@ -140,26 +205,84 @@ impl Stream {
 
     /// Gathers every entry's view data again, for other tests.
     pub fn regather(&mut self, h: &Hierarchy, tests: Tests) {
-        for e in self.runs.iter_mut().flatten() {
-            *e = Entry::new(h, &tests, e.node);
+        for run in &mut self.runs {
+            for e in &mut run.entries {
+                *e = Entry::new(h, &tests, e.node);
+            }
+            run.until.fill(EXPIRED);
         }
         self.tests = tests;
     }
 
-    /// Per run (between sweeps), whether `changes` holds for one of its entries, given its left
-    /// neighbour (the entry before it, `None` for the first); read on every core.
-    pub fn changing(&self, changes: impl Fn(&Entry, Option<&Entry>) -> bool + Sync) -> Vec<bool> {
+    /// Forgets every entry's margin (the odometer starts again).
+    pub fn expire(&mut self) {
+        for run in &mut self.runs {
+            run.until.fill(EXPIRED);
+        }
+    }
+
+    /// Per run (between sweeps), whether one of its entries may change, read on every core.
+    ///
+    /// `settled` weighs an entry after its left neighbour (the entry before it, `None` for the
+    /// first): `None` when a visit could change it, else how far the camera may travel before one
+    /// could. Each entry keeps until when (a value of the refiner's odometer, `now` being this
+    /// frame's) it cannot change, and only entries whose time has come are weighed again, unless
+    /// `all` (the view changed otherwise than by the camera's move).
+    pub fn changing(
+        &mut self,
+        now: f32,
+        all: bool,
+        settled: impl Fn(&Entry, bool) -> Option<f32> + Sync,
+    ) -> Vec<bool> {
         use rayon::prelude::*;
-        (0..self.runs.len())
-            .into_par_iter()
-            .with_min_len(32)
-            .map(|k| {
-                let mut left = k.checked_sub(1).and_then(|j| self.runs[j].last());
-                self.runs[k].iter().any(|e| {
-                    let changed = changes(e, left);
-                    left = Some(e);
-                    changed
-                })
+        // Of each run's left neighbour, its parent: a pair needs no more.
+        let lefts: Vec<u32> = (0..self.runs.len()).map(|k| self.left_parent(k)).collect();
+        self.runs
+            .par_chunks_mut(32)
+            .zip(lefts.par_chunks(32))
+            .flat_map_iter(|(runs, lefts)| {
+                let mut flags = Vec::with_capacity(runs.len());
+                for run in runs.iter().take(AHEAD) {
+                    crate::prefetch_address(run.until.as_ptr() as usize);
+                }
+                for k in 0..runs.len() {
+                    // The next run's margins, asked for ahead (each run is its own block).
+                    if let Some(next) = runs.get(k + AHEAD) {
+                        crate::prefetch_address(next.until.as_ptr() as usize);
+                    }
+                    let run = &mut runs[k];
+                    // The entries to weigh, asked for all at once so that their reads overlap.
+                    let mut due: smallvec::SmallVec<[u16; RUN]> = smallvec::SmallVec::new();
+                    for (i, &until) in run.until.iter().enumerate() {
+                        if all || until <= now {
+                            due.push(i as u16);
+                            crate::prefetch(&run.entries[i]);
+                            if i > 0 {
+                                crate::prefetch(&run.entries[i - 1].parent);
+                            }
+                        }
+                    }
+                    let mut changes = false;
+                    for &i in &due {
+                        let i = i as usize;
+                        let e = &run.entries[i];
+                        // Only the entries weighed are read, and their left neighbours' parents.
+                        let left = match i {
+                            0 => lefts[k],
+                            _ => run.entries[i - 1].parent,
+                        };
+                        let paired = e.parent != NIL && e.parent == left;
+                        run.until[i] = match settled(e, paired) {
+                            Some(margin) => later(now, margin),
+                            None => {
+                                changes = true;
+                                EXPIRED
+                            }
+                        };
+                    }
+                    flags.push(changes);
+                }
+                flags
             })
             .collect()
     }
@@ -167,8 +290,15 @@ impl Stream {
     /// The node before run `k` (between sweeps); [`NIL`] before the first.
     pub fn left_of_run(&self, k: usize) -> u32 {
         k.checked_sub(1)
-            .and_then(|j| self.runs[j].last())
+            .and_then(|j| self.runs[j].entries.last())
             .map_or(NIL, |e| e.node)
+    }
+
+    /// The parent of the node before run `k` (between sweeps); [`NIL`] before the first.
+    fn left_parent(&self, k: usize) -> u32 {
+        k.checked_sub(1)
+            .and_then(|j| self.runs[j].entries.last())
+            .map_or(NIL, |e| e.parent)
     }
 
     /// Starts a sweep at run `start`: the runs before it stay as they are, the rest are read.
@@ -194,7 +324,7 @@ impl Stream {
         self.next += 1;
         // The buffer read to its end is reused for a run written later.
         let mut done = std::mem::replace(&mut self.reading, std::mem::take(run));
-        if done.capacity() >= RUN {
+        if done.entries.capacity() >= RUN {
             done.clear();
             self.spare.push(done);
         }
@@ -202,12 +332,13 @@ impl Stream {
         true
     }
 
-    /// The next entry of the run being read; `None` at its end.
+    /// The next entry of the run being read, with its `until`; `None` at its end.
     #[inline]
-    pub fn next(&mut self) -> Option<Entry> {
-        let e = self.reading.get(self.read).copied();
-        self.read += e.is_some() as usize;
-        e
+    pub fn next(&mut self) -> Option<(Entry, f32)> {
+        let e = self.reading.entries.get(self.read).copied()?;
+        let until = self.reading.until[self.read];
+        self.read += 1;
+        Some((e, until))
     }
 
     /// Passes the next run by, as it is (only between runs); returns its length. A short run
@@ -225,9 +356,12 @@ impl Stream {
         };
         match before {
             Some(before) if before.len() + len <= RUN => {
-                before.extend_from_slice(&run);
+                before.append(&run);
                 run.clear();
                 self.spare.push(run);
+                if self.open.len() >= RUN {
+                    self.close();
+                }
             }
             _ => {
                 self.close();
@@ -237,10 +371,16 @@ impl Stream {
         len
     }
 
-    /// Writes `e` after the last entry written.
+    /// Writes `e` after the last entry written, to be weighed in the next frame.
     #[inline]
     pub fn push(&mut self, e: Entry) {
-        self.open.push(e);
+        self.push_until(e, EXPIRED);
+    }
+
+    /// Writes `e` after the last entry written, unchanged until `until`.
+    #[inline]
+    pub fn push_until(&mut self, e: Entry, until: f32) {
+        self.open.push(e, until);
         if self.open.len() >= RUN {
             self.close();
         }
@@ -249,7 +389,7 @@ impl Stream {
     /// Ends the run being written.
     fn close(&mut self) {
         if !self.open.is_empty() {
-            let fresh = self.spare.pop().unwrap_or_else(|| Vec::with_capacity(RUN));
+            let fresh = self.spare.pop().unwrap_or_else(|| Run::with_capacity(RUN));
             self.out.push(std::mem::replace(&mut self.open, fresh));
         }
     }
@@ -258,8 +398,9 @@ impl Stream {
     #[inline]
     pub fn last(&self) -> Option<&Entry> {
         self.open
+            .entries
             .last()
-            .or_else(|| self.out.last().and_then(|r| r.last()))
+            .or_else(|| self.out.last().and_then(|r| r.entries.last()))
     }
 
     /// Runs written so far (the last one closed): where a sweep that stops here resumes.
@@ -271,7 +412,7 @@ impl Stream {
     /// Takes back the last entry written.
     #[inline]
     pub fn pop(&mut self) {
-        if self.open.pop().is_some() {
+        if self.open.pop() {
             return;
         }
         if let Some(run) = self.out.last_mut() {
@@ -287,17 +428,17 @@ impl Stream {
     pub fn end(&mut self) {
         self.close();
         if self.read < self.reading.len() {
-            self.out.push(self.reading[self.read..].to_vec());
+            self.out.push(self.reading.tail(self.read));
         }
         self.reading.clear();
         self.read = 0;
-        let rest: Vec<Vec<Entry>> = self.runs.drain(self.next..).collect();
+        let rest: Vec<Run> = self.runs.drain(self.next..).collect();
         self.out.extend(rest);
         self.runs = std::mem::take(&mut self.out);
         self.next = 0;
         // Runs joined in passes give back more buffers than a sweep takes: keep a sweep's worth.
         self.spare.truncate(SPARE_RUNS);
-        self.len = self.runs.iter().map(Vec::len).sum();
+        self.len = self.runs.iter().map(Run::len).sum();
     }
 
     /// Replaces every pair of neighbouring siblings whose parent is in `unified` (sorted) by the
@@ -320,15 +461,28 @@ impl Stream {
 
     /// The entries, between sweeps.
     pub fn entries(&self) -> Vec<Entry> {
-        self.runs.iter().flatten().copied().collect()
+        self.runs.iter().flat_map(|r| &r.entries).copied().collect()
     }
 
     /// Heap bytes.
     pub fn bytes(&self) -> usize {
         self.runs
             .iter()
-            .map(|r| r.capacity() * std::mem::size_of::<Entry>())
+            .map(|r| {
+                r.entries.capacity() * std::mem::size_of::<Entry>()
+                    + r.until.capacity() * std::mem::size_of::<f32>()
+            })
             .sum::<usize>()
-            + self.runs.capacity() * std::mem::size_of::<Vec<Entry>>()
+            + self.runs.capacity() * std::mem::size_of::<Run>()
     }
+}
+
+/// The odometer value `margin` past `now`, rounded down (and a thousandth short, against the
+/// rounding of the margins' own arithmetic).
+#[inline]
+fn later(now: f32, margin: f32) -> f32 {
+    if margin == f32::INFINITY {
+        return f32::INFINITY;
+    }
+    (now + margin * 0.999).next_down()
 }
