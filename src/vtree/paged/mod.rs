@@ -1,0 +1,104 @@
+//! The paged, quantised node layout of `.vtree` version 4 (docs/FORMAT.md): the tree cut into
+//! *pages*, connected pieces of at most [`PAGE_NODES`] nodes (a page's root and its descendants
+//! down to where other pages begin), each stored on its own with its own checksum, so that a
+//! reader can fetch the pages it needs and check each alone.
+//!
+//! Inside a page every number is small: positions and sphere centres as 16-bit fractions of the
+//! page's box, normals and cone axes octahedral, errors and radii in a 16-bit float rounded up,
+//! ids and triangle corners as variable-length differences. Nothing promised gets weaker: every
+//! error grows by how far its page moved its positions, every sphere by how far any position of
+//! its subtree moved, every cone by how far its axis turned; the file states the largest position error, and
+//! the strict bound adds it (see [`VertexTree::position_error`]).
+//!
+//! The cut is Kundu and Misra's greedy (*A linear tree partitioning algorithm*, SIAM J. Computing
+//! 1977): children before parents, each node's open piece grows by its children's until it would
+//! pass the page size, when its heaviest children's pieces close as pages. It makes the fewest
+//! pages of a bounded size that are connected.
+
+mod codes;
+mod read;
+mod write;
+
+pub use read::{PageContext, decode_all, decode_page, directory};
+pub use write::{DIRECTORY_HEAD, encode};
+
+use super::{NONE, VertexTree};
+use crate::color::srgb8;
+use rayon::prelude::*;
+
+/// Nodes at most in a page: a few thousand, as a streaming reader fetches them (about 80 KB).
+pub const PAGE_NODES: usize = 4096;
+/// Bytes of a page's entry in the directory (`PAGE`): its offset in `PDAT` (u64), length (u32),
+/// CRC-32 (u32), node count (u32) and root node (u32).
+pub const DIRECTORY_ENTRY: usize = 24;
+
+/// A page's place in the file and what it holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PageEntry {
+    pub offset: u64,
+    pub length: u32,
+    pub crc: u32,
+    pub nodes: u32,
+    pub root: u32,
+}
+
+/// What [`encode`] makes: the directory and the pages, back to back.
+pub struct Encoded {
+    pub directory: Vec<u8>,
+    pub pages: Vec<u8>,
+}
+
+/// The pages of `tree`: each node's page, numbered by their roots in increasing order (a page's
+/// child pages come before it; the root's page is the last).
+pub fn paginate(tree: &VertexTree) -> (Vec<u32>, Vec<u32>) {
+    let n = tree.nodes.len();
+    let mut weight = vec![1u32; n];
+    let mut is_root = vec![false; n];
+    for u in tree.leaf_count as usize..n {
+        let mut kids = tree.nodes[u].children.map(|c| c as usize);
+        if weight[kids[0]] < weight[kids[1]] {
+            kids.swap(0, 1);
+        }
+        let mut w = 1 + weight[kids[0]] + weight[kids[1]];
+        for c in kids {
+            if w as usize > PAGE_NODES {
+                is_root[c] = true;
+                w -= weight[c];
+            }
+        }
+        weight[u] = w;
+    }
+    is_root[n - 1] = true;
+    let roots: Vec<u32> = (0..n as u32).filter(|&u| is_root[u as usize]).collect();
+    let mut page_of = vec![NONE; n];
+    let mut next = roots.len() as u32;
+    for u in (0..n).rev() {
+        page_of[u] = if is_root[u] {
+            next -= 1;
+            next
+        } else {
+            page_of[tree.nodes[u].parent as usize]
+        };
+    }
+    // Pages were numbered from the last root down: page k holds root `roots[k]`.
+    (page_of, roots)
+}
+
+/// Whether any node's colour differs from white as stored (a build blends white into
+/// not-quite-white, which the pages need not store).
+pub fn any_color(tree: &VertexTree) -> bool {
+    // The least linear value stored as 255 (`srgb8` rises with its argument): a comparison a
+    // channel instead of a power.
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if srgb8(mid) == 255 {
+            hi = mid
+        } else {
+            lo = mid
+        }
+    }
+    tree.nodes
+        .par_iter()
+        .any(|n| n.color.iter().any(|&c| c.is_nan() || c < hi) && n.color.map(srgb8) != [255; 3])
+}

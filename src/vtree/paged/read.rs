@@ -1,0 +1,351 @@
+//! Reading pages: each checked alone (its checksum, every id and reference in range, every
+//! number finite), and the whole tree from all of them.
+
+use super::codes::*;
+use super::{DIRECTORY_ENTRY, DIRECTORY_HEAD, PAGE_NODES, PageEntry};
+use crate::color::srgb_to_linear;
+use crate::vtree::format::{FormatError, FormatErrorKind};
+use crate::vtree::{NONE, Node};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// What decoding a page gives: its nodes (ids and nodes, parents unset) and each internal node's
+/// triangles.
+pub struct DecodedPage {
+    pub ids: Vec<u32>,
+    pub nodes: Vec<Node>,
+    /// Per internal node of the page, in order, how many triangles; then all of them.
+    pub counts: Vec<u32>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Reads page bytes: a cursor that fails with the page's offset in the file.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+    base: u64,
+    page: usize,
+    path: &'a std::path::Path,
+}
+
+impl Reader<'_> {
+    fn fail(&self, what: &str) -> FormatError {
+        FormatError {
+            path: self.path.to_path_buf(),
+            offset: Some(self.base + self.at as u64),
+            kind: FormatErrorKind::Invalid,
+            message: format!("page {}: {what}", self.page),
+        }
+    }
+    fn take<const N: usize>(&mut self) -> Result<[u8; N], FormatError> {
+        let b = self
+            .bytes
+            .get(self.at..self.at + N)
+            .ok_or_else(|| self.fail("ends inside a node"))?;
+        self.at += N;
+        Ok(b.try_into().expect("N bytes"))
+    }
+    fn u16(&mut self) -> Result<u16, FormatError> {
+        Ok(u16::from_le_bytes(self.take()?))
+    }
+    fn f32(&mut self) -> Result<f32, FormatError> {
+        Ok(f32::from_le_bytes(self.take()?))
+    }
+    fn varint(&mut self) -> Result<u64, FormatError> {
+        let mut x = 0u64;
+        for shift in (0..64).step_by(7) {
+            let [b] = self.take()?;
+            x |= ((b & 0x7f) as u64) << shift;
+            if b & 0x80 == 0 {
+                return Ok(x);
+            }
+        }
+        Err(self.fail("a number runs past 64 bits"))
+    }
+}
+
+/// What every page of a file shares.
+pub struct PageContext<'a> {
+    pub path: &'a std::path::Path,
+    pub leaf_count: u32,
+    pub node_count: u32,
+    pub scale: f32,
+    pub colors: bool,
+}
+
+/// Decodes page `page` (`bytes`, at `base` in the file, with `entry`), checking its checksum,
+/// every id and reference in range and every number finite.
+pub fn decode_page(
+    cx: &PageContext,
+    page: usize,
+    entry: &PageEntry,
+    bytes: &[u8],
+    base: u64,
+) -> Result<DecodedPage, FormatError> {
+    let mut r = Reader {
+        bytes,
+        at: 0,
+        base,
+        page,
+        path: cx.path,
+    };
+    if crc32fast::hash(bytes) != entry.crc {
+        return Err(FormatError {
+            kind: FormatErrorKind::Checksum,
+            ..r.fail("is corrupt (checksum mismatch)")
+        });
+    }
+    let mut v = [0f32; 7];
+    for x in &mut v {
+        *x = r.f32()?;
+    }
+    if !v.iter().all(|x| x.is_finite()) || v[6] < 0.0 || v[3..6].iter().any(|&s| s < 0.0) {
+        return Err(r.fail("its grid or position error is not finite and non-negative"));
+    }
+    let grid = Grid {
+        lo: Vec3::new(v[0], v[1], v[2]),
+        step: Vec3::new(v[3], v[4], v[5]),
+        inverse: Vec3::ZERO,
+    };
+    let leaf_error = v[6];
+    let count = entry.nodes as usize;
+    if count == 0 || count > PAGE_NODES {
+        return Err(r.fail(&format!("{count} nodes; a page holds 1 to {PAGE_NODES}")));
+    }
+    let mut out = DecodedPage {
+        ids: Vec::with_capacity(count),
+        nodes: Vec::with_capacity(count),
+        counts: Vec::new(),
+        triangles: Vec::new(),
+    };
+    let (mut previous, mut first_corner) = (0u64, 0i64);
+    let mut children: Vec<[u64; 2]> = Vec::new();
+    for k in 0..count {
+        let id = previous + r.varint()?;
+        if (k > 0 && id == previous) || id >= cx.node_count as u64 {
+            return Err(r.fail(&format!("node id {id} out of order or range")));
+        }
+        previous = id;
+        let position = grid.decode([r.u16()?, r.u16()?, r.u16()?]);
+        let offset = r.take::<3>()?.map(|o| o as i8);
+        let radius = decode_scaled(r.u16()?, cx.scale);
+        let center = sphere_center(position, offset, radius);
+        let [a, b, c] = r.take::<3>()?.map(u16::from);
+        let normal = oct_decode([a | (b & 0xf) << 8, b >> 4 | c << 4], NORMAL_BITS);
+        let [a0, a1, cos] = r.take::<3>()?;
+        let axis = oct_decode([a0 as u16, a1 as u16], CONE_BITS);
+        let cos = cone_decode(cos);
+        let color = if cx.colors {
+            r.take::<3>()?.map(|c| srgb_to_linear(c as f32 / 255.0))
+        } else {
+            [1.0; 3]
+        };
+        let mut node = Node {
+            position: position.to_array(),
+            error: leaf_error,
+            color,
+            parent: NONE,
+            normal: normal.to_array(),
+            children: [NONE; 2],
+            sphere: [center.x, center.y, center.z, radius],
+            cone: [axis.x, axis.y, axis.z, cos],
+        };
+        if id >= cx.leaf_count as u64 {
+            node.error = decode_scaled(r.u16()?, cx.scale);
+            children.push([r.varint()?, r.varint()?]);
+            let tris = r.varint()?;
+            if tris > (bytes.len() - r.at) as u64 {
+                return Err(r.fail(&format!("{tris} triangles cannot fit in what is left")));
+            }
+            out.counts.push(tris as u32);
+            for _ in 0..tris {
+                let c0 = first_corner + unzigzag(r.varint()?);
+                first_corner = c0;
+                let c1 = c0 + unzigzag(r.varint()?);
+                let c2 = c0 + unzigzag(r.varint()?);
+                let t = [c0, c1, c2];
+                if t.iter().any(|&c| c < 0 || c >= cx.leaf_count as i64) {
+                    return Err(r.fail(&format!("triangle {t:?} names a leaf out of range")));
+                }
+                out.triangles.push(t.map(|c| c as u32));
+            }
+        }
+        out.ids.push(id as u32);
+        out.nodes.push(node);
+    }
+    if r.at != bytes.len() {
+        return Err(r.fail(&format!("{} bytes after its last node", bytes.len() - r.at)));
+    }
+    // Children: in this page by index, or a child page's root by id.
+    let mut k = 0;
+    for i in 0..count {
+        if out.ids[i] < cx.leaf_count {
+            continue;
+        }
+        for (slot, &c) in children[k].iter().enumerate() {
+            let id = if c & 1 == 0 {
+                let j = (c / 2) as usize;
+                *out.ids.get(j).filter(|_| j < i).ok_or_else(|| {
+                    r.fail(&format!("node {} names a child at index {j}", out.ids[i]))
+                })?
+            } else {
+                let id = c / 2;
+                if id >= out.ids[i] as u64 {
+                    return Err(r.fail(&format!("node {} names a later child {id}", out.ids[i])));
+                }
+                id as u32
+            };
+            out.nodes[i].children[slot] = id;
+        }
+        k += 1;
+    }
+    Ok(out)
+}
+
+/// The directory: page count, scale, position error and the entries, checked against the length
+/// of `PDAT`, tiling it in order.
+pub fn directory(
+    bytes: &[u8],
+    data_len: u64,
+    fail: impl Fn(String) -> FormatError,
+) -> Result<(f32, f32, Vec<PageEntry>), FormatError> {
+    if bytes.len() < DIRECTORY_HEAD {
+        return Err(fail("PAGE is shorter than its head".into()));
+    }
+    let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
+    let count = u32_at(0) as usize;
+    let scale = f32::from_bits(u32_at(4));
+    let position_error = f32::from_bits(u32_at(8));
+    if bytes.len() != DIRECTORY_HEAD + count * DIRECTORY_ENTRY {
+        return Err(fail(format!(
+            "PAGE is {} bytes, which {count} pages do not add up to",
+            bytes.len()
+        )));
+    }
+    if !(scale.is_finite() && scale > 0.0 && position_error.is_finite() && position_error >= 0.0) {
+        return Err(fail(
+            "PAGE's scale or position error is not a positive number".into(),
+        ));
+    }
+    let mut entries = Vec::with_capacity(count);
+    let mut expected = 0u64;
+    for p in 0..count {
+        let at = DIRECTORY_HEAD + p * DIRECTORY_ENTRY;
+        let entry = PageEntry {
+            offset: u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes")),
+            length: u32_at(at + 8),
+            crc: u32_at(at + 12),
+            nodes: u32_at(at + 16),
+            root: u32_at(at + 20),
+        };
+        if entry.offset != expected || entry.offset + entry.length as u64 > data_len {
+            return Err(fail(format!(
+                "page {p} at {} ({} bytes) does not follow the one before it inside PDAT",
+                entry.offset, entry.length
+            )));
+        }
+        expected += entry.length as u64;
+        entries.push(entry);
+    }
+    if expected != data_len {
+        return Err(fail(format!(
+            "PDAT has {} bytes after its last page",
+            data_len - expected
+        )));
+    }
+    Ok((scale, position_error, entries))
+}
+
+/// A tree's nodes, triangles and their offsets, as [`decode_all`] returns them.
+pub type Decoded = (Vec<Node>, Vec<[u32; 3]>, Vec<u32>);
+
+/// Every page decoded (on every core, a batch at a time) into one tree's nodes, triangles and
+/// offsets.
+pub fn decode_all(
+    cx: &PageContext,
+    entries: &[PageEntry],
+    data: &[u8],
+    data_base: u64,
+) -> Result<Decoded, FormatError> {
+    let fail = |m: String| FormatError {
+        path: cx.path.to_path_buf(),
+        offset: None,
+        kind: FormatErrorKind::Invalid,
+        message: m,
+    };
+    let total: u64 = entries.iter().map(|e| e.nodes as u64).sum();
+    if total != cx.node_count as u64 {
+        return Err(fail(format!(
+            "the pages hold {total} nodes, META says {}",
+            cx.node_count
+        )));
+    }
+    let n = cx.node_count as usize;
+    let leaves = cx.leaf_count as usize;
+    let mut nodes = vec![bytemuck::Zeroable::zeroed(); n];
+    let mut seen = vec![false; n];
+    let mut counts = vec![0u32; n - leaves];
+    // Each page's ids of internal nodes and their triangles, until every count is known.
+    let mut page_triangles: Vec<(Vec<u32>, Vec<[u32; 3]>)> = Vec::with_capacity(entries.len());
+    // A few pages per core at a time: the decoded nodes go to their places, so that only the
+    // finished tree and a batch of pages are ever in memory.
+    let batch = rayon::current_num_threads() * 8;
+    for (first, chunk) in entries.chunks(batch).enumerate() {
+        let pages: Vec<DecodedPage> = chunk
+            .par_iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let (start, end) = (e.offset as usize, e.offset as usize + e.length as usize);
+                let p = first * batch + i;
+                decode_page(cx, p, e, &data[start..end], data_base + e.offset)
+            })
+            .collect::<Result<_, _>>()?;
+        for page in pages {
+            let mut k = 0;
+            let mut internal = Vec::with_capacity(page.counts.len());
+            for (&id, node) in page.ids.iter().zip(&page.nodes) {
+                let u = id as usize;
+                if std::mem::replace(&mut seen[u], true) {
+                    return Err(fail(format!("node {u} is in two pages")));
+                }
+                nodes[u] = *node;
+                if u >= leaves {
+                    counts[u - leaves] = page.counts[k];
+                    internal.push(id);
+                    k += 1;
+                }
+            }
+            page_triangles.push((internal, page.triangles));
+        }
+    }
+    let mut offsets = Vec::with_capacity(counts.len() + 1);
+    offsets.push(0u32);
+    let mut sum = 0u64;
+    for &c in &counts {
+        sum += c as u64;
+        if sum > u32::MAX as u64 {
+            return Err(fail("more than 2^32 triangles".into()));
+        }
+        offsets.push(sum as u32);
+    }
+    let mut triangles = vec![[0u32; 3]; sum as usize];
+    for (internal, tris) in page_triangles {
+        let mut at = 0usize;
+        for id in internal {
+            let k = id as usize - leaves;
+            let len = counts[k] as usize;
+            let start = offsets[k] as usize;
+            triangles[start..start + len].copy_from_slice(&tris[at..at + len]);
+            at += len;
+        }
+    }
+    // Parents follow from the children; the tree check that reading ends with confirms the rest.
+    for u in leaves..n {
+        for c in nodes[u].children {
+            if c != NONE && (c as usize) < n {
+                nodes[c as usize].parent = u as u32;
+            }
+        }
+    }
+    Ok((nodes, triangles, offsets))
+}
