@@ -51,6 +51,12 @@ impl Default for Settings {
     }
 }
 
+/// Above this share of the front weighed in a frame, margins cost more than they save (see
+/// [`Refiner::update`]) ...
+const PLAIN_ABOVE: f32 = 0.5;
+/// ... and this many frames then weigh every entry the plain way.
+const PLAIN_FRAMES: u32 = 8;
+
 /// A tenth of τ: wide enough that rounding and small camera jitter do not toggle a node, narrow
 /// enough that the front stays within 10 % of the tolerance.
 const HYSTERESIS: f32 = 0.1;
@@ -128,6 +134,13 @@ pub struct Refiner {
     travelled_from: Option<(Camera, f32, Settings)>,
     /// Entries are weighed only when their margin runs out (off: every frame weighs every one).
     margins: bool,
+    /// The share of the front the last frame weighed.
+    weighed_share: f32,
+    /// Frames still to weigh every entry without computing margins, which cost more than they
+    /// save while the camera turns or moves fast enough to use most of them up every frame.
+    plain_frames: u32,
+    /// Frames in a row that computed margins.
+    margin_frames: u32,
 }
 
 impl Refiner {
@@ -155,6 +168,9 @@ impl Refiner {
             odometer: 0.0,
             travelled_from: None,
             margins: true,
+            weighed_share: 0.0,
+            plain_frames: 0,
+            margin_frames: 0,
         }
     }
 
@@ -244,6 +260,18 @@ impl Refiner {
         }
         self.refused = 0;
         let all = self.travel(h, camera, tau);
+        // Margins pay while most entries outlast a frame. When a frame with margins from the frame
+        // before still weighed most of the front (an orbit turns every entry's frustum margin
+        // away), the next few weigh every entry the plain way; then margins are tried again.
+        if self.plain_frames > 0 {
+            self.plain_frames -= 1;
+            self.margin_frames = 0;
+        } else if self.margin_frames >= 2 && self.weighed_share > PLAIN_ABOVE {
+            self.plain_frames = PLAIN_FRAMES - 1;
+            self.margin_frames = 0;
+        } else {
+            self.margin_frames += 1;
+        }
         let mut frame = Frame {
             view,
             tau,
@@ -400,16 +428,20 @@ impl Refiner {
         // Which runs may change, found on every core first (not while a geomorph is under way,
         // which a visit moves on whatever its tests say).
         let settings = self.settings;
+        let plain = self.margin_frames == 0;
         let changing = self.morphs.is_empty().then(|| {
-            let flags = self.stream.changing(frame.now, frame.all, |e, paired| {
+            let (flags, weighed) = self.stream.changing(frame.now, frame.all, |e, paired| {
+                if plain {
+                    return (!Refiner::may_change(&settings, h, frame, e, paired)).then_some(0.0);
+                }
                 let settled = Refiner::settled(&settings, h, frame, e, paired);
-                #[cfg(debug_assertions)]
                 debug_assert_eq!(
                     settled.is_none(),
                     Refiner::may_change(&settings, h, frame, e, paired)
                 );
                 settled
             });
+            self.weighed_share = weighed as f32 / self.stream.len().max(1) as f32;
             let lefts: Vec<u32> = (0..flags.len())
                 .map(|k| self.stream.left_of_run(k))
                 .collect();
@@ -480,7 +512,6 @@ impl Refiner {
     /// Whether a visit to entry `e` could change the front: its node would split or, beside its
     /// sibling (`paired`: its left neighbour is), their parent unify (the visit's tests, with a
     /// one-sided model's walk of triangles taken as a yes).
-    #[cfg(debug_assertions)]
     fn may_change(
         settings: &Settings,
         h: &Hierarchy,

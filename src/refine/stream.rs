@@ -227,13 +227,14 @@ impl Stream {
     /// first): `None` when a visit could change it, else how far the camera may travel before one
     /// could. Each entry keeps until when (a value of the refiner's odometer, `now` being this
     /// frame's) it cannot change, and only entries whose time has come are weighed again, unless
-    /// `all` (the view changed otherwise than by the camera's move).
+    /// `all` (the view changed otherwise than by the camera's move). Also returns how many were
+    /// weighed.
     pub fn changing(
         &mut self,
         now: f32,
         all: bool,
         settled: impl Fn(&Entry, bool) -> Option<f32> + Sync,
-    ) -> Vec<bool> {
+    ) -> (Vec<bool>, usize) {
         use rayon::prelude::*;
         // Of each run's left neighbour, its parent: a pair needs no more.
         let lefts: Vec<u32> = (0..self.runs.len()).map(|k| self.left_parent(k)).collect();
@@ -280,11 +281,16 @@ impl Stream {
                             }
                         };
                     }
-                    flags.push(changes);
+                    flags.push((changes, due.len()));
                 }
                 flags
             })
-            .collect()
+            .collect::<Vec<(bool, usize)>>()
+            .into_iter()
+            .fold((Vec::new(), 0), |(mut flags, weighed), (changes, due)| {
+                flags.push(changes);
+                (flags, weighed + due)
+            })
     }
 
     /// The node before run `k` (between sweeps); [`NIL`] before the first.
