@@ -110,7 +110,13 @@ fn threads_table(
             let (_, secs, _) = measured(|| {
                 pool.install(|| {
                     if in_cells {
-                        vtree::build_partitioned(&mesh, &options, cells, &mut |_, _| {})
+                        vtree::build_partitioned(
+                            &mesh,
+                            &options,
+                            cells,
+                            &std::env::temp_dir(),
+                            &mut |_, _| {},
+                        )
                     } else {
                         vtree::build(&mesh, &options, &mut |_, _| {})
                     }

@@ -11,6 +11,20 @@ pub fn peak_resident_bytes() -> Option<u64> {
     status_kb("VmHWM:").map(|kb| kb * 1024)
 }
 
+/// With the `trace` feature (for the benchmarks), prints the memory resident now and at peak
+/// after `phase`, to stderr: where a build's peak comes from. Nothing otherwise.
+#[inline]
+pub fn trace_phase(phase: &str) {
+    #[cfg(feature = "trace")]
+    eprintln!(
+        "memory after {phase}: resident {} MiB, peak {} MiB",
+        resident_bytes().unwrap_or(0) >> 20,
+        peak_resident_bytes().unwrap_or(0) >> 20
+    );
+    #[cfg(not(feature = "trace"))]
+    let _ = phase;
+}
+
 fn status_kb(key: &str) -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with(key))?;

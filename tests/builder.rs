@@ -619,15 +619,43 @@ fn nodes_take_the_texture_coordinates_of_their_place() {
     }
 }
 
-/// `vtree::build_partitioned` with no progress report.
+/// `vtree::build_partitioned` with no progress report, its levels' nodes waiting in a fresh
+/// folder, which is empty again afterwards.
 fn build_in_cells(mesh: &Mesh, cell_triangles: usize) -> (VertexTree, vtree::BuildStats) {
-    vtree::build_partitioned(
+    let spill = tempfile::tempdir().unwrap();
+    let built = vtree::build_partitioned(
         mesh,
         &BuildOptions::default(),
         cell_triangles,
+        spill.path(),
         &mut |_, _| {},
     )
-    .unwrap()
+    .unwrap();
+    let left: Vec<_> = std::fs::read_dir(spill.path()).unwrap().collect();
+    assert!(left.is_empty(), "the build left {left:?} behind");
+    built
+}
+
+/// A partitioned build whose temporary folder cannot be made fails with the folder's name, not a
+/// panic.
+#[test]
+fn partitioned_build_without_room_for_its_levels_says_where() {
+    let mesh = grid(64, 8, |_, _| 0.0);
+    let missing = std::env::temp_dir().join("vunify-no-such-folder/inside");
+    let Err(err) = vtree::build_partitioned(
+        &mesh,
+        &BuildOptions::default(),
+        512,
+        &missing,
+        &mut |_, _| {},
+    ) else {
+        panic!("built with no folder to spill into");
+    };
+    let message = err.to_string();
+    assert!(
+        message.contains("vunify-no-such-folder") && message.contains("temporary"),
+        "{message}"
+    );
 }
 
 /// A 64 × 8 grid in cells of at most 512 triangles: the kd-tree splits its 1024 triangles at their

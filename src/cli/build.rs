@@ -188,6 +188,7 @@ pub fn build_and_write(
 ) -> Result<()> {
     let t0 = Instant::now();
     let (mesh, cleaned) = mesh::load(input, clean)?;
+    vunify::memory::trace_phase("loading");
     let load_secs = t0.elapsed().as_secs_f64();
     for note in &cleaned.notes {
         eprintln!("note: {}: {note}", input.display());
@@ -204,7 +205,10 @@ pub fn build_and_write(
             (tree, stats, 0)
         }
         How::Cells(cells) => {
-            let (tree, stats) = vtree::build_partitioned(&mesh, options, cells, &mut progress)?;
+            let folder = output.parent().filter(|p| !p.as_os_str().is_empty());
+            let spill = folder.unwrap_or(std::path::Path::new("."));
+            let (tree, stats) =
+                vtree::build_partitioned(&mesh, options, cells, spill, &mut progress)?;
             (tree, stats, cells)
         }
         How::Join(dir, cells) => {

@@ -41,6 +41,9 @@ fn face_normal(p: &[Vec3], t: [u32; 3]) -> DVec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
+/// [`classify`] takes fewer triangles than this: a half-edge holds its face in 31 bits.
+pub const MAX_TRIANGLES: usize = 1 << 31;
+
 /// `sharp_dihedral_deg` is Tao et al.'s θ: an edge between two triangles whose dihedral (interior) angle
 /// is below θ is sharp. 180° is flat.
 pub fn classify(positions: &[Vec3], triangles: &[[u32; 3]], sharp_dihedral_deg: f32) -> Features {
@@ -57,9 +60,14 @@ pub fn classify_with_seams(
     seam: impl Fn(u32, u32, u32, u32) -> bool + Sync,
 ) -> Features {
     let n = positions.len();
+    assert!(
+        triangles.len() < MAX_TRIANGLES,
+        "at most 2^31 triangles are classified (the builders refuse more)"
+    );
     // Face quadrics summed per vertex (sequential: scattered adds) while the directed half-edges
-    // (lo, hi, face, forward?) are grouped by edge: placed by their lower vertex (a counting sort,
-    // linear), then each vertex's few sorted by the rest.
+    // are grouped by edge. A half-edge is 12 bytes (the face and its direction in one number),
+    // and every temporary as small as it can be: at 100 M triangles they are what a partitioned
+    // build's memory peaked at.
     let face_quadrics = || {
         let mut quadrics: Vec<Quadric> = vec![Quadric::default(); n];
         for t in triangles {
@@ -71,70 +79,52 @@ pub fn classify_with_seams(
         }
         quadrics
     };
-    let half_edges = || {
-        let mut first = vec![0u32; n + 1];
-        for t in triangles {
-            for k in 0..3 {
-                first[t[k].min(t[(k + 1) % 3]) as usize + 1] += 1;
-            }
-        }
-        for v in 0..n {
-            first[v + 1] += first[v];
-        }
-        let mut half = vec![(0u32, 0u32, 0u32, false); 3 * triangles.len()];
-        for (f, t) in triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (u, v) = (t[k], t[(k + 1) % 3]);
-                let slot = &mut first[u.min(v) as usize];
-                half[*slot as usize] = (u.min(v), u.max(v), f as u32, u < v);
-                *slot += 1;
-            }
-        }
-        half
-    };
-    let (mut half, mut quadrics) = rayon::join(half_edges, face_quadrics);
-    half.par_chunk_by_mut(|x, y| x.0 == y.0)
-        .for_each(|group| group.sort_unstable());
+    let (half, mut quadrics) = rayon::join(|| HalfEdge::grouped(n, triangles), face_quadrics);
 
     let cos_sharp = (std::f64::consts::PI - (sharp_dihedral_deg as f64).to_radians()).cos();
     let mut feature_count = vec![0u32; n];
     // Each edge's group of half-edges, classified in parallel (the dihedral test needs two face
     // normals an edge: most of the work); the few feature edges add their constraint planes after.
-    let starts: Vec<usize> = (0..half.len())
+    let starts: Vec<u32> = (0..half.len() as u32)
         .into_par_iter()
-        .filter(|&i| i == 0 || (half[i].0, half[i].1) != (half[i - 1].0, half[i - 1].1))
+        .filter(|&i| i == 0 || half[i as usize].edge() != half[i as usize - 1].edge())
         .collect();
-    let classified: Vec<(bool, f64)> = starts
-        .par_iter()
-        .enumerate()
-        .map(|(g, &i)| {
-            let j = starts.get(g + 1).copied().unwrap_or(half.len());
-            let (u, v) = (half[i].0, half[i].1);
-            let feature = match &half[i..j] {
-                [_] => true,
-                [(_, _, f0, d0), (_, _, f1, d1)] => {
-                    let n0 = face_normal(positions, triangles[*f0 as usize]);
-                    let mut n1 = face_normal(positions, triangles[*f1 as usize]);
-                    if d0 == d1 {
-                        n1 = -n1; // inconsistently oriented neighbours: compare as if they agreed
-                    }
-                    // Normals at angle α meet at dihedral π − α; sharp when π − α < θ, i.e.
-                    // cos α < cos(π − θ).
-                    n0.dot(n1) < cos_sharp || seam(*f0, *f1, u, v)
+    let group = |g: usize| {
+        let i = starts[g] as usize;
+        let j = starts.get(g + 1).map_or(half.len(), |&j| j as usize);
+        &half[i..j]
+    };
+    let is_feature: Vec<bool> = (0..starts.len())
+        .into_par_iter()
+        .map(|g| match group(g) {
+            [_] => true,
+            [h0, h1] => {
+                let (u, v) = h0.edge();
+                let n0 = face_normal(positions, triangles[h0.face() as usize]);
+                let mut n1 = face_normal(positions, triangles[h1.face() as usize]);
+                if h0.forward() == h1.forward() {
+                    n1 = -n1; // inconsistently oriented neighbours: compare as if they agreed
                 }
-                _ => true, // non-manifold
-            };
-            let length =
-                (positions[u as usize].as_dvec3() - positions[v as usize].as_dvec3()).length();
-            (feature, length)
+                // Normals at angle α meet at dihedral π − α; sharp when π − α < θ, i.e.
+                // cos α < cos(π − θ).
+                n0.dot(n1) < cos_sharp || seam(h0.face(), h1.face(), u, v)
+            }
+            _ => true, // non-manifold
         })
         .collect();
-    let total_len: f64 = classified.par_iter().map(|&(_, l)| l).sum();
-    let edges: Vec<(u32, u32)> = starts.par_iter().map(|&i| (half[i].0, half[i].1)).collect();
-    let is_feature: Vec<bool> = classified.par_iter().map(|&(feature, _)| feature).collect();
+    let total_len: f64 = starts
+        .par_iter()
+        .map(|&i| {
+            let (u, v) = half[i as usize].edge();
+            (positions[u as usize].as_dvec3() - positions[v as usize].as_dvec3()).length()
+        })
+        .sum();
+    let edges: Vec<(u32, u32)> = starts
+        .par_iter()
+        .map(|&i| half[i as usize].edge())
+        .collect();
     for g in (0..starts.len()).filter(|&g| is_feature[g]) {
-        let (i, j) = (starts[g], starts.get(g + 1).copied().unwrap_or(half.len()));
-        let group = &half[i..j];
+        let group = group(g);
         let (u, v) = edges[g];
         feature_count[u as usize] += 1;
         feature_count[v as usize] += 1;
@@ -148,8 +138,8 @@ pub fn classify_with_seams(
         } else {
             BOUNDARY_WEIGHT
         };
-        for &(_, _, f, _) in group {
-            let fnorm = face_normal(positions, triangles[f as usize]);
+        for h in group {
+            let fnorm = face_normal(positions, triangles[h.face() as usize]);
             let m = e.cross(fnorm).normalize_or_zero();
             if m != DVec3::ZERO {
                 let q = Quadric::constraint(m, pu, w * e.length_squared());
@@ -178,6 +168,61 @@ pub fn classify_with_seams(
         vertex_weight,
         quadrics,
         mean_edge_length,
+    }
+}
+
+/// A directed half-edge as [`classify_with_seams`] groups them: its edge's ends in increasing
+/// order, and its face shifted up by one with whether it runs from `lo` to `hi` in the lowest
+/// bit, so that half-edges sort by (lo, hi, face, forward?).
+#[derive(Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord)]
+struct HalfEdge {
+    lo: u32,
+    hi: u32,
+    face_forward: u32,
+}
+
+impl HalfEdge {
+    /// The half-edges of `triangles` (over `n` vertices) grouped by edge, sorted: placed by their
+    /// lower vertex (a counting sort, linear), then each vertex's few sorted by the rest.
+    fn grouped(n: usize, triangles: &[[u32; 3]]) -> Vec<HalfEdge> {
+        let mut first = vec![0u32; n + 1];
+        for t in triangles {
+            for k in 0..3 {
+                first[t[k].min(t[(k + 1) % 3]) as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            first[v + 1] += first[v];
+        }
+        let mut half = vec![HalfEdge::default(); 3 * triangles.len()];
+        for (f, t) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (u, v) = (t[k], t[(k + 1) % 3]);
+                let slot = &mut first[u.min(v) as usize];
+                half[*slot as usize] = HalfEdge::new(u.min(v), u.max(v), f as u32, u < v);
+                *slot += 1;
+            }
+        }
+        half.par_chunk_by_mut(|x, y| x.lo == y.lo)
+            .for_each(|group| group.sort_unstable());
+        half
+    }
+
+    fn new(lo: u32, hi: u32, face: u32, forward: bool) -> HalfEdge {
+        HalfEdge {
+            lo,
+            hi,
+            face_forward: face << 1 | forward as u32,
+        }
+    }
+    fn edge(&self) -> (u32, u32) {
+        (self.lo, self.hi)
+    }
+    fn face(&self) -> u32 {
+        self.face_forward >> 1
+    }
+    fn forward(&self) -> bool {
+        self.face_forward & 1 == 1
     }
 }
 

@@ -111,7 +111,7 @@ pub fn join(
             shared.count_merges(out.made.nodes.len());
             Ok(out)
         };
-        shared.finish(&leaf, start, progress)
+        shared.finish(&leaf, dir, start, progress)
     })
 }
 

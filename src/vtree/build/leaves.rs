@@ -3,7 +3,9 @@
 use super::NONE;
 use super::node::cone_of;
 use crate::mesh::Mesh;
+use crate::simplify::metric::PairEnd;
 use crate::simplify::pairs::close_pairs;
+use crate::simplify::quadric::Quadric;
 use crate::vtree::Node;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -73,6 +75,17 @@ where
         .unzip_into_vecs(&mut nodes, &mut mass);
     drop(faces);
     (nodes, mass)
+}
+
+/// Each vertex's pair end: its quadric (about the origin in `quadrics`) about its position, and
+/// its Table 1 weight.
+pub(super) fn pair_ends(quadrics: &[Quadric], weights: &[f32], positions: &[Vec3]) -> Vec<PairEnd> {
+    quadrics
+        .par_iter()
+        .zip(weights)
+        .zip(positions)
+        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
+        .collect()
 }
 
 /// Each vertex's triangles in index order, in one array grouped by vertex (a counting sort): what

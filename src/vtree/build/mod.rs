@@ -147,10 +147,18 @@ pub enum BuildError {
     Empty,
     #[error("the mesh has {0} vertices; at most 2^30 are supported")]
     TooLarge(usize),
+    #[error("the mesh has {0} triangles; at most 2^31 are supported")]
+    TooManyTriangles(usize),
     #[error("invalid mesh: {0}")]
     Invalid(#[from] crate::mesh::MeshProblem),
     #[error("the model's coordinates span more than a float holds (its diagonal is infinite)")]
     TooLargeCoordinates,
+    /// A temporary file of a partitioned build (its levels' nodes, see [`build_partitioned`]).
+    #[error("{}: {problem}", path.display())]
+    Spill {
+        path: std::path::PathBuf,
+        problem: String,
+    },
     /// A cell file of a build run in steps ([`cells`]).
     #[error("{}: {problem}", path.display())]
     Cell {
@@ -434,18 +442,21 @@ pub fn build(
 /// [`build`] in cells of at most `cell_triangles` triangles, built in parallel with their borders
 /// locked and joined level by level (see [`partition`]): one vertex tree all the same. A mesh with
 /// vertex colours, texture coordinates or materials, or one that fits in one cell, is built whole. The
-/// cells build with the passes schedule whatever `options.schedule` says.
+/// cells build with the passes schedule whatever `options.schedule` says. The nodes each level
+/// makes wait on disk, in a temporary folder inside `spill` (the output's folder, say), until the
+/// tree is numbered.
 pub fn build_partitioned(
     mesh: &Mesh,
     options: &BuildOptions,
     cell_triangles: usize,
+    spill: &std::path::Path,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<(VertexTree, BuildStats), BuildError> {
     build_scaled(mesh, progress, &mut |unit, progress| {
         if builds_whole(unit, cell_triangles) {
             build_unit(unit, options, progress)
         } else {
-            partition::build(unit, options, cell_triangles, progress)
+            partition::build(unit, options, cell_triangles, spill, progress)
         }
     })
 }
@@ -549,6 +560,9 @@ fn build_geometry(
     if n >= SLOT as usize {
         return Err(BuildError::TooLarge(n));
     }
+    if mesh.triangles.len() >= features::MAX_TRIANGLES {
+        return Err(BuildError::TooManyTriangles(mesh.triangles.len()));
+    }
     let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
 
     // 1. Features and quadrics.
@@ -593,12 +607,7 @@ fn build_geometry(
         collapser.add_proximity_pair(a, b);
     }
 
-    let ends: Vec<PairEnd> = quadrics
-        .par_iter()
-        .zip(&vertex_weight)
-        .zip(&mesh.positions)
-        .map(|((q, &w), &p)| PairEnd::new(q, p, w))
-        .collect();
+    let ends = leaves::pair_ends(&quadrics, &vertex_weight, &mesh.positions);
     let color_scale = match mesh.colors {
         Some(_) => options.color_weight.max(0.0) * diagonal,
         None => 0.0,
@@ -688,21 +697,7 @@ impl Builder<'_> {
             (w.finish(&vanished), firsts)
         });
         drop(vanished);
-        let mut tree = VertexTree {
-            leaf_count: mesh.positions.len() as u32,
-            nodes,
-            triangles,
-            vanish_offsets,
-            metric: options.metric,
-            has_colors: mesh.colors.is_some(),
-            has_normals: mesh.normals.is_some(),
-            one_sided: mesh.one_sided,
-            appearance: None,
-            materials: None,
-            wedges: None,
-            position_error: 0.0,
-            parts: part_infos(mesh),
-        };
+        let mut tree = geometry_tree(mesh, options, nodes, triangles, vanish_offsets);
         if let (Some((wedges, firsts)), Some(input)) = (wedges, input) {
             (tree.appearance, tree.materials) = wedges::node_appearance(input, &wedges, &firsts);
             tree.wedges = Some(wedges);
@@ -710,6 +705,32 @@ impl Builder<'_> {
         stats.nodes = tree.nodes.len() as u32;
         stats.depth = tree.depth();
         (tree, stats)
+    }
+}
+
+/// The tree of `mesh` built with `options` from its nodes, triangles and their offsets, without
+/// appearance (what [`Builder::into_tree`] adds).
+pub(super) fn geometry_tree(
+    mesh: &Mesh,
+    options: &BuildOptions,
+    nodes: Vec<Node>,
+    triangles: Vec<[u32; 3]>,
+    vanish_offsets: Vec<u32>,
+) -> VertexTree {
+    VertexTree {
+        leaf_count: mesh.positions.len() as u32,
+        nodes,
+        triangles,
+        vanish_offsets,
+        metric: options.metric,
+        has_colors: mesh.colors.is_some(),
+        has_normals: mesh.normals.is_some(),
+        one_sided: mesh.one_sided,
+        appearance: None,
+        materials: None,
+        wedges: None,
+        position_error: 0.0,
+        parts: part_infos(mesh),
     }
 }
 

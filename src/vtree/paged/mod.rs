@@ -42,10 +42,10 @@ pub struct PageEntry {
     pub root: u32,
 }
 
-/// What [`encode`] makes: the directory and the pages, back to back.
+/// What [`encode`] makes: the directory, and the pages, which the file holds back to back.
 pub struct Encoded {
     pub directory: Vec<u8>,
-    pub pages: Vec<u8>,
+    pub pages: Vec<Vec<u8>>,
 }
 
 /// The pages of `tree`: each node's page, numbered by their roots in increasing order (a page's

@@ -22,10 +22,7 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
     // page's bytes. Pages in waves, each page's child pages in earlier waves: a wave's pages on
     // every core, each page's scattered nodes read into cache once for all three.
     let mut done = Done {
-        spheres: vec![([0i8; 3], 0u16); n],
-        errors: vec![0u16; n],
-        positions: vec![Vec3::ZERO; n],
-        moved: vec![0f32; n],
+        roots: vec![Stored::default(); roots.len()],
         page_error: vec![0f32; roots.len()],
     };
     let mut bodies: Vec<Vec<u8>> = vec![Vec::new(); roots.len()];
@@ -40,13 +37,8 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
             })
             .collect();
         for (p, codes, body) in pages {
-            for (k, &u) in members[p].iter().enumerate() {
-                let u = u as usize;
-                done.spheres[u] = codes.spheres[k];
-                done.errors[u] = codes.errors[k];
-                done.positions[u] = codes.positions[k];
-                done.moved[u] = codes.moved[k];
-            }
+            // The page's root is its last node (a parent's id is above its children's).
+            done.roots[p] = codes.stored(members[p].len() - 1);
             done.page_error[p] = codes.page_error;
             bodies[p] = body;
         }
@@ -56,10 +48,10 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
     directory.extend_from_slice(&(roots.len() as u32).to_le_bytes());
     directory.extend_from_slice(&scale.to_le_bytes());
     directory.extend_from_slice(&position_error.to_le_bytes());
-    let mut pages = Vec::with_capacity(bodies.iter().map(Vec::len).sum());
+    let mut offset = 0u64;
     for (p, body) in bodies.iter().enumerate() {
         let entry = PageEntry {
-            offset: pages.len() as u64,
+            offset,
             length: body.len() as u32,
             crc: crc32fast::hash(body),
             nodes: members[p].len() as u32,
@@ -70,9 +62,12 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
         directory.extend_from_slice(&entry.crc.to_le_bytes());
         directory.extend_from_slice(&entry.nodes.to_le_bytes());
         directory.extend_from_slice(&entry.root.to_le_bytes());
-        pages.extend_from_slice(body);
+        offset += body.len() as u64;
     }
-    Encoded { directory, pages }
+    Encoded {
+        directory,
+        pages: bodies,
+    }
 }
 
 /// Bytes of the directory before its entries: page count (u32), scale (f32), position error (f32).
@@ -90,16 +85,21 @@ struct PageWriter<'a> {
     colors: bool,
 }
 
-/// What the pages of earlier waves left, per node (and per page).
+/// What the pages of earlier waves left, per page: what its parent page reads of its root (a
+/// page reads no other node of another page), and its position error.
 struct Done {
-    spheres: Vec<([i8; 3], u16)>,
-    errors: Vec<u16>,
-    /// Positions as stored.
-    positions: Vec<Vec3>,
-    /// How far any stored position of the node's subtree lies from the tree's.
-    moved: Vec<f32>,
-    /// Each page's position error.
+    roots: Vec<Stored>,
     page_error: Vec<f32>,
+}
+
+/// A node as its page stores it: its error's and sphere's codes, its position as stored, and how
+/// far any stored position of its subtree lies from the tree's.
+#[derive(Clone, Copy, Default)]
+struct Stored {
+    error: u16,
+    sphere: ([i8; 3], u16),
+    position: Vec3,
+    moved: f32,
 }
 
 /// A page's nodes' codes and stored positions, in the page's order, and its position error.
@@ -109,6 +109,18 @@ struct Codes {
     positions: Vec<Vec3>,
     moved: Vec<f32>,
     page_error: f32,
+}
+
+impl Codes {
+    /// The page's `k`-th node as stored.
+    fn stored(&self, k: usize) -> Stored {
+        Stored {
+            error: self.errors[k],
+            sphere: self.spheres[k],
+            position: self.positions[k],
+            moved: self.moved[k],
+        }
+    }
 }
 
 /// The pages in waves: each page after every page below it (its child pages have smaller
@@ -204,23 +216,12 @@ impl<'a> PageWriter<'a> {
             let mut e = node.error + page_error;
             let mut below = page_error;
             let children = node.children.map(|c| {
-                let (error, (offset, code), at, moved) = match self.ids[..k].binary_search(&c) {
-                    Ok(j) => (
-                        codes.errors[j],
-                        codes.spheres[j],
-                        codes.positions[j],
-                        codes.moved[j],
-                    ),
-                    Err(_) => {
-                        let c = c as usize;
-                        (
-                            done.errors[c],
-                            done.spheres[c],
-                            done.positions[c],
-                            done.moved[c],
-                        )
-                    }
+                let child = match self.ids[..k].binary_search(&c) {
+                    Ok(j) => codes.stored(j),
+                    Err(_) => done.roots[self.page_of[c as usize] as usize],
                 };
+                let (error, (offset, code), at, moved) =
+                    (child.error, child.sphere, child.position, child.moved);
                 e = e.max(if c < leaves {
                     let p = self.page_of[c as usize];
                     if p == self.page {

@@ -29,6 +29,7 @@
 
 mod kd;
 mod number;
+mod spill;
 
 use super::node::{SAMPLES, Samples};
 use super::passes::SlotSet;
@@ -42,6 +43,8 @@ use glam::Vec3;
 use kd::{Split, cell_ranges};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
+use spill::{Spill, Spilled};
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -158,11 +161,17 @@ pub(super) fn build(
     mesh: &Mesh,
     options: &BuildOptions,
     cell_triangles: usize,
+    spill: &Path,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<(VertexTree, BuildStats), BuildError> {
     let start = Instant::now();
     let shared = Shared::new(mesh, options, cell_triangles)?;
-    shared.finish(&|shared, at| Ok(shared.build_cell(at)), start, progress)
+    shared.finish(
+        &|shared, at| Ok(shared.build_cell(at)),
+        spill,
+        start,
+        progress,
+    )
 }
 
 impl<'m> Shared<'m> {
@@ -179,13 +188,31 @@ impl<'m> Shared<'m> {
         if n >= super::queue::SLOT as usize {
             return Err(BuildError::TooLarge(n));
         }
+        if mesh.triangles.len() >= features::MAX_TRIANGLES {
+            return Err(BuildError::TooManyTriangles(mesh.triangles.len()));
+        }
         let diagonal = mesh.diagonal().max(f32::MIN_POSITIVE);
         let mut prefix = BuildStats::default();
         let clock = Instant::now();
-        let feats = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+        let features::Features {
+            edges,
+            is_feature,
+            vertex_weight,
+            quadrics,
+            mean_edge_length,
+        } = features::classify(&mesh.positions, &mesh.triangles, options.sharp_angle_deg);
+        // Each array goes as soon as what it makes is made: at a hundred million triangles the
+        // quadrics alone are 4 GB.
+        let ends = leaves::pair_ends(&quadrics, &vertex_weight, &mesh.positions);
+        drop((quadrics, vertex_weight));
+        prefix.feature_edges = is_feature.iter().filter(|&&f| f).count() as u32;
+        drop(is_feature);
+        crate::memory::trace_phase("features");
         prefix.phases.features = clock.elapsed().as_secs_f64();
         let clock = Instant::now();
-        let close = leaves::close_pairs_for(&mesh.positions, &feats.edges, options, diagonal);
+        let close = leaves::close_pairs_for(&mesh.positions, &edges, options, diagonal);
+        drop(edges);
+        crate::memory::trace_phase("close pairs");
         prefix.phases.close_pairs = clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         let lists = leaves::FaceLists::new(n, &mesh.triangles);
@@ -194,13 +221,6 @@ impl<'m> Shared<'m> {
             lists.of(v).iter().map(move |&f| (f, t[f as usize]))
         });
         drop(lists);
-        let ends: Vec<PairEnd> = feats
-            .quadrics
-            .par_iter()
-            .zip(&feats.vertex_weight)
-            .zip(&mesh.positions)
-            .map(|((q, &w), &p)| PairEnd::new(q, p, w))
-            .collect();
         let split = Split::new(mesh, cell_triangles);
         let cell_range = cell_ranges(mesh, &split);
         let holder: Vec<u32> = close
@@ -215,8 +235,8 @@ impl<'m> Shared<'m> {
             by_node[k as usize].push(pair);
         }
         prefix.proximity_pairs = close.len() as u32;
-        prefix.feature_edges = feats.is_feature.iter().filter(|&&f| f).count() as u32;
         prefix.phases.leaves = clock.elapsed().as_secs_f64();
+        crate::memory::trace_phase("leaves");
         Ok(Shared {
             mesh,
             options,
@@ -228,7 +248,7 @@ impl<'m> Shared<'m> {
             close: by_node,
             params: Params {
                 options: options.clone(),
-                mean_edge_length: feats.mean_edge_length,
+                mean_edge_length,
                 radius: options.pair_distance.max(1e-3) * diagonal,
             },
             merges: AtomicUsize::new(0),
@@ -258,15 +278,18 @@ impl<'m> Shared<'m> {
 
     /// Every level, the leaf cells' from `leaf`, the halves of each kd-tree node at once, and the
     /// nodes numbered into one tree; progress from this thread meanwhile.
+    /// The levels' nodes wait in a temporary folder in `spill` until they are numbered.
     pub(super) fn finish(
-        &self,
+        self,
         leaf: &LeafCells,
+        spill: &Path,
         start: Instant,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<(VertexTree, BuildStats), BuildError> {
         let n = self.mesh.positions.len();
+        let spill = Spill::new(spill)?;
         let (remains, made, cell_stats) = std::thread::scope(|scope| {
-            let work = scope.spawn(|| self.solve(self.split.root, leaf));
+            let work = scope.spawn(|| self.solve(self.split.root, leaf, &spill));
             while !work.is_finished() {
                 progress(self.merges.load(Ordering::Relaxed), n - 1);
                 std::thread::sleep(std::time::Duration::from_millis(50));
@@ -287,7 +310,24 @@ impl<'m> Shared<'m> {
         stats.phases.features = self.prefix.phases.features;
         stats.phases.close_pairs = self.prefix.phases.close_pairs;
         stats.phases.leaves = self.prefix.phases.leaves;
-        let tree = self.number(made);
+        // What only the levels read goes before the tree is numbered, whose nodes are a
+        // partitioned build's peak: the leaves become the tree's first nodes, not a copy.
+        let Shared {
+            mesh,
+            options,
+            leaf_nodes,
+            ends,
+            mass,
+            cell_range,
+            close,
+            split,
+            ..
+        } = self;
+        drop((ends, mass, cell_range, close, split));
+        crate::memory::trace_phase("levels");
+        let tree = number::number(mesh, options, leaf_nodes, made)?;
+        drop(spill);
+        crate::memory::trace_phase("numbering");
         stats.nodes = tree.nodes.len() as u32;
         stats.depth = tree.depth();
         stats.seconds = start.elapsed().as_secs_f64();
@@ -300,13 +340,15 @@ impl<'m> Shared<'m> {
         &self,
         at: u32,
         leaf: &LeafCells,
-    ) -> Result<(Remains, Vec<Made>, BuildStats), BuildError> {
+        spill: &Spill,
+    ) -> Result<(Remains, Vec<Spilled>, BuildStats), BuildError> {
         let kd = &self.split.nodes[at as usize];
         let Some([l, r]) = kd.children else {
             let out = leaf(self, at)?;
-            return Ok((out.remains, vec![out.made], out.stats));
+            return Ok((out.remains, vec![spill.write(out.made)?], out.stats));
         };
-        let (left, right) = rayon::join(|| self.solve(l, leaf), || self.solve(r, leaf));
+        let (left, right) =
+            rayon::join(|| self.solve(l, leaf, spill), || self.solve(r, leaf, spill));
         let ((left, mut made, mut stats), (right, more, other)) = (left?, right?);
         made.extend(more);
         add_stats(&mut stats, &other);
@@ -325,7 +367,7 @@ impl<'m> Shared<'m> {
             &self.mesh.positions,
             &self.merges,
         );
-        made.push(out.made);
+        made.push(spill.write(out.made)?);
         add_stats(&mut stats, &out.stats);
         Ok((out.remains, made, stats))
     }
