@@ -217,6 +217,10 @@ pub fn build_and_write(
         }
     };
     bar.finish_and_clear();
+    // The input is not read again: it goes before the tree is encoded, the build's last peak.
+    let (vertices, triangles, parts) =
+        (mesh.vertex_count(), mesh.triangle_count(), mesh.parts.len());
+    drop(mesh);
     vtree::write_with(&tree, output, encoding)
         .with_context(|| format!("cannot write {}", output.display()))?;
     let file_bytes = std::fs::metadata(output).map_or(0, |m| m.len());
@@ -224,7 +228,7 @@ pub fn build_and_write(
     if json {
         let json = serde_json::json!({
             "input": input, "output": output, "metric": options.metric.name(),
-            "vertices": mesh.vertex_count(), "triangles": mesh.triangle_count(), "parts": mesh.parts.len(),
+            "vertices": vertices, "triangles": triangles, "parts": parts,
             "cleaned": cleaned, "build": stats, "load_seconds": load_secs, "peak_memory_bytes": peak,
             "file_bytes": file_bytes,
         });
@@ -232,12 +236,7 @@ pub fn build_and_write(
         return Ok(());
     }
     println!("input      {}", input.display());
-    println!(
-        "           {} vertices, {} triangles, {} part(s)",
-        mesh.vertex_count(),
-        mesh.triangle_count(),
-        mesh.parts.len()
-    );
+    println!("           {vertices} vertices, {triangles} triangles, {parts} part(s)");
     println!(
         "cleaned    {} welded, {} unused vertices dropped; {} degenerate and {} duplicate faces dropped",
         cleaned.welded_vertices,
@@ -277,7 +276,7 @@ pub fn build_and_write(
     println!(
         "file       {:.1} MB, {:.1} bytes a triangle ({layout})",
         file_bytes as f64 / 1e6,
-        file_bytes as f64 / mesh.triangle_count().max(1) as f64
+        file_bytes as f64 / triangles.max(1) as f64
     );
     let p = &stats.phases;
     println!(
@@ -288,7 +287,7 @@ pub fn build_and_write(
         println!(
             "memory     process peak {:.1} MiB, input included ({:.0} bytes per input triangle)",
             p as f64 / 1048576.0,
-            p as f64 / mesh.triangle_count() as f64
+            p as f64 / triangles as f64
         );
     }
     println!("wrote      {}", output.display());

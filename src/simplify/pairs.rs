@@ -20,6 +20,9 @@ const FIELD_BITS: u32 = 21;
 const MAX_CELLS: f32 = ((1u32 << FIELD_BITS) - 4) as f32;
 /// Points a task sweeps with one set of cursors.
 const SWEEP_CHUNK: usize = 8192;
+/// How many of a point's close points are put in order at a time: more than a fine mesh's 2-ring
+/// holds (which `keep` rejects), so one batch is usually enough.
+const NEAREST_FIRST: usize = 32;
 
 /// A point in the grid: its cell's key, its id and position.
 #[derive(Clone, Copy)]
@@ -73,13 +76,29 @@ pub fn close_pairs(
                     }
                 }
                 // Nearest first, and `keep` asked only until enough are kept: most close points of
-                // a fine mesh are its own neighbours, which `keep` rejects.
-                near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                let kept = near.iter().filter(|&&(_, other)| keep(g.id, other));
-                out.extend(
-                    kept.take(max_per_point)
-                        .map(|&(_, other)| (g.id.min(other), g.id.max(other))),
-                );
+                // a fine mesh are its own neighbours, which `keep` rejects. Only the nearest few
+                // are put in order, then the rest if those were not enough: on a dense surface a
+                // point has hundreds within the radius (a 100 M-triangle terrain: ~300), and
+                // sorting them all took most of its build's search.
+                let order =
+                    |a: &(f32, u32), b: &(f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+                let mut kept = 0;
+                let mut from = 0;
+                while kept < max_per_point && from < near.len() {
+                    let rest = &mut near[from..];
+                    let take = NEAREST_FIRST.min(rest.len());
+                    if take < rest.len() {
+                        rest.select_nth_unstable_by(take - 1, order);
+                    }
+                    rest[..take].sort_unstable_by(order);
+                    for &(_, other) in &rest[..take] {
+                        if kept < max_per_point && keep(g.id, other) {
+                            out.push((g.id.min(other), g.id.max(other)));
+                            kept += 1;
+                        }
+                    }
+                    from += take;
+                }
             }
             out
         })
@@ -217,6 +236,34 @@ mod tests {
                 brute_force(&pts, radius, max, keep),
                 "seed {seed}"
             );
+        }
+    }
+
+    /// A dense cloud (hundreds of points within the radius of each) and a `keep` that rejects
+    /// all but about one in forty: the kept partners lie past several batches of
+    /// `NEAREST_FIRST`, and are still the nearest kept ones, ties to the smaller id.
+    #[test]
+    fn kept_partners_beyond_the_first_nearest_batch_match_brute_force() {
+        for seed in 0..6u64 {
+            let mut rnd = crate::simplify::test_random(100 + seed);
+            // A quarter of the points on a coarse lattice, so that many are equally near.
+            let pts: Vec<(u32, Vec3)> = (0..1500u32)
+                .map(|i| {
+                    let p = Vec3::new(rnd(), rnd(), rnd() * 0.1);
+                    let p = if i % 4 == 0 {
+                        (p * 8.0).floor() / 8.0
+                    } else {
+                        p
+                    };
+                    (i, p)
+                })
+                .collect();
+            let keep = |i: u32, j: u32| (i + j) % 41 == 0;
+            for max in [1, 3] {
+                let got = close_pairs(&pts, 0.3, max, keep);
+                assert!(got.len() > 500, "seed {seed}: {} pairs", got.len());
+                assert_eq!(got, brute_force(&pts, 0.3, max, keep), "seed {seed}");
+            }
         }
     }
 
