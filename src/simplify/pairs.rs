@@ -258,7 +258,7 @@ mod tests {
                     (i, p)
                 })
                 .collect();
-            let keep = |i: u32, j: u32| (i + j) % 41 == 0;
+            let keep = |i: u32, j: u32| (i + j).is_multiple_of(41);
             for max in [1, 3] {
                 let got = close_pairs(&pts, 0.3, max, keep);
                 assert!(got.len() > 500, "seed {seed}: {} pairs", got.len());
