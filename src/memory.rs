@@ -6,6 +6,17 @@ pub fn resident_bytes() -> Option<u64> {
     status_kb("VmRSS:").map(|kb| kb * 1024)
 }
 
+/// The machine's physical memory (`MemTotal`).
+pub fn physical_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    line.split_whitespace()
+        .nth(1)?
+        .parse::<u64>()
+        .ok()
+        .map(|kb| kb * 1024)
+}
+
 /// The most bytes resident so far (`VmHWM`, the high-water mark).
 pub fn peak_resident_bytes() -> Option<u64> {
     status_kb("VmHWM:").map(|kb| kb * 1024)

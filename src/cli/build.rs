@@ -51,7 +51,10 @@ pub struct BuildArgs {
     /// cells at once; each cell's border is locked, then sibling cells are joined and built on,
     /// level by level, to one root (docs/VERTEX_TREE.md). The result is one vertex tree like the
     /// whole build's, of slightly lower quality. Meshes with vertex colours, texture coordinates or
-    /// materials, and meshes of at most N triangles, are built whole. Default: the whole mesh at once.
+    /// materials, and meshes of at most N triangles, are built whole. Default: the whole mesh at
+    /// once while that fits in three quarters of this machine's memory (a whole build peaks at
+    /// about 300 bytes a triangle), in cells of 1,000,000 beyond (a note says so; a huge N builds
+    /// whole anyway).
     #[arg(long, value_name = "N")]
     cell_triangles: Option<usize>,
     /// With --cell-triangles: do not build, but write the plan of a build in separate steps to
@@ -164,6 +167,29 @@ pub enum How<'a> {
     Join(&'a Path, usize),
 }
 
+/// How a build that was given no cells goes: whole, unless that would not fit in memory (see
+/// [`vtree::default_cells`]); a note says when it is built in cells.
+fn default_how(input: &Path, mesh: &mesh::Mesh) -> How<'static> {
+    let appearance = mesh.colors.is_some() || mesh.uvs.is_some() || mesh.material_of.is_some();
+    let physical = vunify::memory::physical_bytes();
+    match vtree::default_cells(mesh.triangle_count(), physical) {
+        Some(cells) if !appearance => {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+            eprintln!(
+                "note: {}: built whole, its {} triangles would need about {:.1} GiB, more than \
+                 three quarters of this machine's {:.1} GiB: building it in cells of {cells} \
+                 triangles (--cell-triangles N to choose, a huge N for whole)",
+                input.display(),
+                mesh.triangle_count(),
+                gib(mesh.triangle_count() as u64 * vtree::WHOLE_BUILD_BYTES_PER_TRIANGLE),
+                gib(physical.unwrap_or(0))
+            );
+            How::Cells(cells)
+        }
+        _ => How::Whole,
+    }
+}
+
 /// The input's file name with its mesh extension (and any `.xz`) replaced by `.vtree`.
 fn default_output(input: &Path) -> PathBuf {
     let name = input
@@ -199,6 +225,10 @@ pub fn build_and_write(
     );
     bar.set_message("building");
     let mut progress = |done: usize, _| bar.set_position(done as u64);
+    let how = match how {
+        How::Whole => default_how(input, &mesh),
+        how => how,
+    };
     let (tree, stats, cell_triangles) = match how {
         How::Whole => {
             let (tree, stats) = vtree::build(&mesh, options, &mut progress)?;

@@ -16,7 +16,10 @@ mod extract;
 mod format;
 mod paged;
 
-pub use build::{BuildError, BuildOptions, BuildStats, Schedule, build, build_partitioned, cells};
+pub use build::{
+    BuildError, BuildOptions, BuildStats, DEFAULT_CELL_TRIANGLES, Schedule,
+    WHOLE_BUILD_BYTES_PER_TRIANGLE, build, build_partitioned, cells, default_cells,
+};
 pub use check::{TreeProblem, check, check_cut};
 pub use extract::{Cut, cut_at_bound, cut_at_error, cut_at_merges, cut_at_triangles};
 pub use format::{
