@@ -170,10 +170,9 @@ pub enum How<'a> {
 /// How a build that was given no cells goes: whole, unless that would not fit in memory (see
 /// [`vtree::default_cells`]); a note says when it is built in cells.
 fn default_how(input: &Path, mesh: &mesh::Mesh) -> How<'static> {
-    let appearance = mesh.colors.is_some() || mesh.uvs.is_some() || mesh.material_of.is_some();
     let physical = vunify::memory::physical_bytes();
-    match vtree::default_cells(mesh.triangle_count(), physical) {
-        Some(cells) if !appearance => {
+    match vtree::default_cells(mesh, physical) {
+        Some(cells) => {
             let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             eprintln!(
                 "note: {}: built whole, its {} triangles would need about {:.1} GiB, more than \
@@ -186,7 +185,7 @@ fn default_how(input: &Path, mesh: &mesh::Mesh) -> How<'static> {
             );
             How::Cells(cells)
         }
-        _ => How::Whole,
+        None => How::Whole,
     }
 }
 

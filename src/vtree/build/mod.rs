@@ -26,6 +26,7 @@ mod greedy;
 mod leaves;
 mod node;
 pub mod partition;
+pub use partition::{DEFAULT_CELL_TRIANGLES, WHOLE_BUILD_BYTES_PER_TRIANGLE, default_cells};
 mod passes;
 mod pricing;
 mod queue;
@@ -461,28 +462,9 @@ pub fn build_partitioned(
     })
 }
 
-/// What a whole build's process peaks at, a triangle of its input, rounded up (265 on the
-/// 14 M model, 287 on the dragon: BENCHMARKS.md).
-pub const WHOLE_BUILD_BYTES_PER_TRIANGLE: u64 = 300;
-
-/// The cell size a build uses when it is not given one.
-pub const DEFAULT_CELL_TRIANGLES: usize = 1_000_000;
-
-/// The cells a build of `triangles` triangles should use on a machine with `physical` bytes of
-/// memory when asked for none: `None` (whole, the best tree) while a whole build needs at most
-/// three quarters of the memory, [`DEFAULT_CELL_TRIANGLES`] beyond that, where a whole build
-/// would make the machine swap or be stopped (a partitioned build peaks at about two thirds of a
-/// whole one's, BENCHMARKS.md). Unknown memory: whole.
-pub fn default_cells(triangles: usize, physical: Option<u64>) -> Option<usize> {
-    let physical = physical?;
-    let whole = triangles as u64 * WHOLE_BUILD_BYTES_PER_TRIANGLE;
-    (whole > physical / 4 * 3 && triangles > DEFAULT_CELL_TRIANGLES)
-        .then_some(DEFAULT_CELL_TRIANGLES)
-}
-
 /// Whether [`build_partitioned`] builds `unit` whole: it fits in one cell, or carries colours,
 /// texture coordinates or materials, which the cells do not carry yet.
-fn builds_whole(unit: &Mesh, cell_triangles: usize) -> bool {
+pub(super) fn builds_whole(unit: &Mesh, cell_triangles: usize) -> bool {
     unit.triangles.len() <= cell_triangles
         || unit.colors.is_some()
         || unit.uvs.is_some()
@@ -918,30 +900,6 @@ fn texture_scales(mesh: &Mesh) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_build_is_whole_while_it_fits_in_three_quarters_of_memory() {
-        const GIB: u64 = 1 << 30;
-        // 24 GiB: whole up to 18 GiB / 300 B ≈ 64 M triangles, in cells beyond.
-        assert_eq!(default_cells(14_000_000, Some(24 * GIB)), None);
-        assert_eq!(default_cells(64_000_000, Some(24 * GIB)), None);
-        assert_eq!(
-            default_cells(66_000_000, Some(24 * GIB)),
-            Some(DEFAULT_CELL_TRIANGLES)
-        );
-        assert_eq!(
-            default_cells(100_000_000, Some(24 * GIB)),
-            Some(DEFAULT_CELL_TRIANGLES)
-        );
-        // A small machine: 2 M triangles in cells on 256 MiB, but never a mesh that fits in one
-        // cell (the dragon).
-        assert_eq!(default_cells(871_306, Some(256 << 20)), None);
-        assert_eq!(
-            default_cells(2_000_000, Some(256 << 20)),
-            Some(DEFAULT_CELL_TRIANGLES)
-        );
-        assert_eq!(default_cells(100_000_000, None), None);
-    }
 
     /// The blocked sums are the plain ones, bit for bit: every vertex's triangles in index order,
     /// whichever block its triangles' other corners fall in. A 9 × 9 grid of vertices whose

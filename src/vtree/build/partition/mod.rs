@@ -27,9 +27,12 @@
 //! order; and [`crate::vtree::extract::cut_at_triangles`] (build order) takes the levels' cheapest
 //! merges first, as a whole build's passes do.
 
+mod budget;
 mod kd;
 mod number;
 mod spill;
+
+pub use budget::{DEFAULT_CELL_TRIANGLES, WHOLE_BUILD_BYTES_PER_TRIANGLE, default_cells};
 
 use super::node::{SAMPLES, Samples};
 use super::passes::SlotSet;
