@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Build a vertex tree on a Ray cluster: the cells of a partitioned build as Ray tasks.
 
-    scripts/ray_build.py IN OUT.vtree [--cell-triangles N] [--address ADDR] [--vunify PATH]
-                         [--plan-dir DIR] [--retries K] [--keep]
+    scripts/ray_build.py IN OUT.vtree [--cell-triangles N | --memory SIZE] [--address ADDR]
+                         [--vunify PATH] [--plan-dir DIR] [--retries K] [--keep]
 
 The three steps are vunify's own (docs/DISTRIBUTED.md): this driver runs `vunify build IN
---cell-triangles N --plan DIR` here, `vunify cell DIR --index I` once per cell as a Ray task
-(retried when it fails, up to --retries times), and `vunify join DIR -o OUT.vtree` here. The tree is byte for byte the
-one of `vunify build IN -o OUT.vtree --cell-triangles N` in one process.
+--cell-triangles N --plan DIR` (or `--memory SIZE`, which picks the cells) here, `vunify cell DIR
+--index I` once per cell as a Ray task (retried when it fails, up to --retries times), and
+`vunify join DIR -o OUT.vtree` here. The tree is byte for byte the one of `vunify build IN -o
+OUT.vtree --cell-triangles N` (or `--memory SIZE`, on this machine) in one process.
 
 Every task reads and writes DIR, so DIR must be a path every node of the cluster sees (NFS, a
 shared volume, an object store mounted as a folder); by default it is made beside OUT. Without
@@ -46,8 +47,12 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("input", help="the mesh (any format vunify build reads)")
     parser.add_argument("output", help="the .vtree to write")
-    parser.add_argument("--cell-triangles", type=int, default=1_000_000,
-                        help="cell size, as vunify build --cell-triangles (default 1000000)")
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--cell-triangles", type=int,
+                      help="cell size, as vunify build --cell-triangles (default 1000000)")
+    size.add_argument("--memory", metavar="SIZE",
+                      help="the cells that keep a one-process build within SIZE (64M, 8G), "
+                      "as vunify build --memory, chosen on this machine")
     parser.add_argument("--address", help="the Ray cluster (ray.init address); default: local")
     parser.add_argument("--vunify", help="the vunify binary (default: the one on PATH)")
     parser.add_argument("--plan-dir", help="the shared folder for the plan and cells "
@@ -67,8 +72,10 @@ def main():
 
     try:
         started = time.time()
-        plan = json.loads(run([vunify, "build", args.input, "--cell-triangles",
-                               str(args.cell_triangles), "--plan", plan_dir, "--json"]))
+        cells_by = (["--memory", args.memory] if args.memory else
+                    ["--cell-triangles", str(args.cell_triangles or 1_000_000)])
+        plan = json.loads(run([vunify, "build", args.input, *cells_by, "--plan", plan_dir,
+                               "--json"]))
         cells = plan["cells"]
         print(f"plan       {cells} cells in {plan_dir} ({time.time() - started:.1f} s)", flush=True)
 

@@ -177,6 +177,97 @@ fn build_in_cells() {
     }
 }
 
+/// `--memory SIZE`: a 200,000-triangle terrain (written here) in 90 MiB goes in cells and
+/// peaks within the budget and a tenth; a budget below what any build needs is refused, saying
+/// how much would do, and that much does; what a whole build fits is built whole.
+#[test]
+fn build_within_memory() {
+    let terrain = tmp("terrain-200k.ply");
+    let t = vunify::generate::Terrain::with_triangles(200_000, 7);
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&terrain).unwrap());
+    vunify::generate::write_terrain(&mut out, &t, &mut |_, _| {}).unwrap();
+    drop(out);
+    let input = terrain.to_str().unwrap();
+    let tree = tmp("terrain-200k.vtree");
+    let build = |memory: &str| {
+        Command::new(env!("CARGO_BIN_EXE_vunify"))
+            .args(["build", input, "-o", tree.to_str().unwrap(), "--json"])
+            .arg(format!("--memory={memory}"))
+            // The cells are chosen for this many at once.
+            .env("RAYON_NUM_THREADS", "2")
+            .output()
+            .unwrap()
+    };
+    let within = |memory: &str, budget: f64| {
+        let out = build(memory);
+        let json: serde_json::Value = serde_json::from_str(&ok(&out)).unwrap();
+        let peak = json["peak_memory_bytes"].as_f64().unwrap();
+        assert!(peak <= 1.1 * budget, "--memory {memory}: peak {peak}");
+        assert_eq!(json["memory_budget_bytes"].as_f64(), Some(budget));
+        let note = String::from_utf8_lossy(&out.stderr).to_string();
+        (json["build"]["cells"].as_u64().unwrap(), note)
+    };
+    let mib = (1u64 << 20) as f64;
+    let (cells, note) = within("90M", 90.0 * mib);
+    assert!(cells > 1, "{cells} cells");
+    assert!(note.contains("to stay within --memory 90 MiB"), "{note}");
+    let info: serde_json::Value = serde_json::from_str(&ok(&vunify(&[
+        "info",
+        tree.to_str().unwrap(),
+        "--check",
+        "--json",
+    ])))
+    .unwrap();
+    assert_eq!(info["checked"], true);
+    // The same budget as separate steps (plan, each cell, join): the same cells, the same bytes.
+    let one_process = std::fs::read(&tree).unwrap();
+    let dir = tmp("terrain-plan");
+    let with_threads = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_vunify"))
+            .args(args)
+            .env("RAYON_NUM_THREADS", "2")
+            .output()
+            .unwrap();
+        ok(&out)
+    };
+    let dir_s = dir.to_str().unwrap();
+    let plan: serde_json::Value = serde_json::from_str(&with_threads(&[
+        "build", input, "--memory", "90M", "--plan", dir_s, "--json",
+    ]))
+    .unwrap();
+    assert_eq!(plan["cells"].as_u64(), Some(cells));
+    for i in 0..cells {
+        with_threads(&["cell", dir_s, "--index", &i.to_string()]);
+    }
+    let joined = tmp("terrain-joined.vtree");
+    with_threads(&["join", dir_s, "-o", joined.to_str().unwrap()]);
+    assert!(std::fs::read(&joined).unwrap() == one_process);
+    // Whole where a whole build fits.
+    assert_eq!(within("1G", 1024.0 * mib).0, 0);
+    // Too little: refused, no output, and the size it names is enough.
+    std::fs::remove_file(&tree).unwrap();
+    let out = build("40M");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        err.contains("terrain-200k.ply") && err.contains("too little"),
+        "{err}"
+    );
+    assert!(!tree.exists(), "no output when refused");
+    let enough = err
+        .split("give --memory ")
+        .nth(1)
+        .and_then(|rest| rest.split('M').next())
+        .unwrap_or_else(|| panic!("{err}"));
+    within(&format!("{enough}M"), enough.parse::<f64>().unwrap() * mib);
+    // Sizes: a unit is needed or bytes; nonsense is refused.
+    for bad in ["8Q", "-1G", "0"] {
+        let out = build(bad);
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--memory"));
+    }
+}
+
 #[test]
 fn bad_input_is_a_clear_error() {
     let bad = tmp("bad.obj");
@@ -218,6 +309,8 @@ fn help_explains_every_option() {
         "--w-feature",
         "--no-weld",
         "--cell-triangles",
+        "--memory",
+        "--plan",
         "qem-midpoint",
         "hybrid",
     ] {

@@ -10,6 +10,7 @@ use vunify::simplify::metric::HybridWeights;
 use vunify::vtree::{self, BuildOptions, Schedule};
 
 #[derive(Args)]
+#[command(group(clap::ArgGroup::new("cells").args(["cell_triangles", "memory"])))]
 pub struct BuildArgs {
     /// Input mesh or scene: .obj (objects and groups become parts), .ply, .off (any may end in .xz),
     /// or glTF 2.0 .gltf / .glb (the default scene flattened; base colour textures and texture
@@ -57,12 +58,19 @@ pub struct BuildArgs {
     /// whole anyway).
     #[arg(long, value_name = "N")]
     cell_triangles: Option<usize>,
-    /// With --cell-triangles: do not build, but write the plan of a build in separate steps to
+    /// Keep the process's peak resident memory within SIZE (bytes, or with K, M, G or T for
+    /// powers of 1024: 64M, 8G, 1.5G): whole while a whole build fits, else in the largest cells
+    /// that do, chosen after the input is read from a measured model (docs/VERTEX_TREE.md,
+    /// "Memory"). A build in cells needs about 170 bytes a triangle however small its cells: a
+    /// SIZE below what the input needs is refused, saying how much would do.
+    #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+    memory: Option<u64>,
+    /// With --cell-triangles or --memory: do not build, but write the plan of a build in separate steps to
     /// the folder DIR (shared by every machine that runs a step): then `vunify cell DIR --index I`
     /// for each cell I (any order, anywhere; a batch system's array index works too), then
     /// `vunify join DIR -o OUT.vtree`, whose tree is byte for byte this command's without --plan
     /// (docs/DISTRIBUTED.md).
-    #[arg(long, value_name = "DIR", requires = "cell_triangles")]
+    #[arg(long, value_name = "DIR", requires = "cells")]
     plan: Option<PathBuf>,
     /// Keep vertices with identical positions apart (welding is on by default).
     #[arg(long)]
@@ -128,13 +136,14 @@ pub fn run(args: BuildArgs) -> Result<()> {
     if args.cell_triangles.is_some() && options.schedule == Schedule::Greedy {
         bail!("--cell-triangles builds with the passes schedule; drop --schedule greedy");
     }
-    let how = match (args.cell_triangles, &args.plan) {
-        (Some(cells), Some(dir)) => {
-            return super::cells::plan(&args.input, &options, &clean, cells, dir, args.json);
-        }
-        (Some(cells), None) => How::Cells(cells),
-        (None, _) => How::Whole,
+    let how = match (args.cell_triangles, args.memory) {
+        (Some(cells), _) => How::Cells(cells),
+        (None, Some(bytes)) => How::Within(bytes),
+        (None, None) => How::Whole,
     };
+    if let Some(dir) = &args.plan {
+        return super::cells::plan(&args.input, &options, &clean, how, dir, args.json);
+    }
     let encoding = encoding(args.exact);
     build_and_write(
         &args.input,
@@ -163,15 +172,103 @@ pub enum How<'a> {
     Whole,
     /// In cells of at most this many triangles.
     Cells(usize),
+    /// Within this many bytes of resident memory: whole, or in the cells that fit.
+    Within(u64),
     /// From the cell outputs of a plan in this folder, made with this cell size.
     Join(&'a Path, usize),
+}
+
+/// `--memory SIZE`: bytes, or a number with K, M, G or T (powers of 1024; an `iB` or `B` after
+/// it is allowed).
+pub fn parse_memory(text: &str) -> Result<u64, String> {
+    let trimmed = text.trim();
+    let lower = trimmed.to_ascii_lowercase();
+    let number = lower.trim_end_matches("ib").trim_end_matches('b');
+    let (digits, shift) = match number.chars().last() {
+        Some('k') => (&number[..number.len() - 1], 10),
+        Some('m') => (&number[..number.len() - 1], 20),
+        Some('g') => (&number[..number.len() - 1], 30),
+        Some('t') => (&number[..number.len() - 1], 40),
+        _ => (number, 0),
+    };
+    let value: f64 = digits.trim().parse().map_err(|_| {
+        format!("`{trimmed}` is not a size: give bytes, or a number with K, M, G or T (64M, 8G)")
+    })?;
+    let bytes = value * (1u64 << shift) as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("`{trimmed}` is not a size of memory"));
+    }
+    Ok(bytes as u64)
+}
+
+fn mib(bytes: u64) -> String {
+    if bytes >= 10 << 30 {
+        format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+    } else {
+        format!("{} MiB", bytes.div_ceil(1 << 20))
+    }
+}
+
+/// `--memory`: the cells that keep `mesh`'s build within `budget` bytes (`None`: whole), or why
+/// none do.
+pub fn cells_within(input: &Path, mesh: &mesh::Mesh, budget: u64) -> Result<Option<usize>> {
+    let threads = rayon::current_num_threads();
+    match vtree::cells_within(mesh, budget, threads) {
+        Ok(cells) => Ok(cells),
+        Err(too_small) => {
+            let why = if too_small.whole_only {
+                "it is built whole (colours, texture coordinates and materials are not built in \
+                 cells yet, and a small mesh fits in one), at about 300 bytes a triangle"
+                    .to_string()
+            } else {
+                format!(
+                    "a build in cells keeps about {} bytes a triangle however small its cells",
+                    vtree::CELLS_FLOOR_BYTES_PER_TRIANGLE
+                )
+            };
+            bail!(
+                "--memory {} is too little to build {} ({} triangles): {why}, so it needs \
+                 about {}; give --memory {}M or more",
+                mib(budget),
+                input.display(),
+                mesh.triangle_count(),
+                mib(too_small.needed),
+                too_small.needed.div_ceil(1 << 20)
+            )
+        }
+    }
+}
+
+/// What `how` comes to for `mesh`: the default's cells, or a budget's (with a note), or as given.
+pub fn resolve<'a>(how: How<'a>, input: &Path, mesh: &mesh::Mesh) -> Result<How<'a>> {
+    Ok(match how {
+        How::Whole => default_how(input, mesh),
+        How::Within(budget) => match cells_within(input, mesh, budget)? {
+            Some(cells) => {
+                eprintln!(
+                    "note: {}: in cells of {cells} triangles to stay within --memory {} \
+                     (estimated peak {})",
+                    input.display(),
+                    mib(budget),
+                    mib(vtree::cells_build_bytes(
+                        mesh.triangle_count(),
+                        cells,
+                        rayon::current_num_threads()
+                    ))
+                );
+                How::Cells(cells)
+            }
+            None => How::Whole,
+        },
+        how => how,
+    })
 }
 
 /// How a build that was given no cells goes: whole, unless that would not fit in memory (see
 /// [`vtree::default_cells`]); a note says when it is built in cells.
 fn default_how(input: &Path, mesh: &mesh::Mesh) -> How<'static> {
     let physical = vunify::memory::physical_bytes();
-    match vtree::default_cells(mesh, physical) {
+    match vtree::default_cells(mesh, physical, rayon::current_num_threads()) {
         Some(cells) => {
             let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             eprintln!(
@@ -218,16 +315,17 @@ pub fn build_and_write(
     for note in &cleaned.notes {
         eprintln!("note: {}: {note}", input.display());
     }
+    let budget = match how {
+        How::Within(bytes) => Some(bytes),
+        _ => None,
+    };
+    let how = resolve(how, input, &mesh)?;
     let bar = super::progress_bar(
         mesh.vertex_count().saturating_sub(1) as u64,
         "{msg} [{bar:40}] {pos}/{len} merges ({eta})",
     );
     bar.set_message("building");
     let mut progress = |done: usize, _| bar.set_position(done as u64);
-    let how = match how {
-        How::Whole => default_how(input, &mesh),
-        how => how,
-    };
     let (tree, stats, cell_triangles) = match how {
         How::Whole => {
             let (tree, stats) = vtree::build(&mesh, options, &mut progress)?;
@@ -244,6 +342,7 @@ pub fn build_and_write(
             let (tree, stats) = vtree::cells::join(&mesh, options, cells, dir, &mut progress)?;
             (tree, stats, cells)
         }
+        How::Within(_) => unreachable!("resolved to whole or cells"),
     };
     bar.finish_and_clear();
     // The input is not read again: it goes before the tree is encoded, the build's last peak.
@@ -259,6 +358,7 @@ pub fn build_and_write(
             "input": input, "output": output, "metric": options.metric.name(),
             "vertices": vertices, "triangles": triangles, "parts": parts,
             "cleaned": cleaned, "build": stats, "load_seconds": load_secs, "peak_memory_bytes": peak,
+            "memory_budget_bytes": budget,
             "file_bytes": file_bytes,
         });
         println!("{}", serde_json::to_string_pretty(&json)?);
@@ -314,9 +414,10 @@ pub fn build_and_write(
     );
     if let Some(p) = peak {
         println!(
-            "memory     process peak {:.1} MiB, input included ({:.0} bytes per input triangle)",
+            "memory     process peak {:.1} MiB, input included ({:.0} bytes per input triangle){}",
             p as f64 / 1048576.0,
-            p as f64 / triangles as f64
+            p as f64 / triangles as f64,
+            budget.map_or(String::new(), |b| format!(", --memory {}", mib(b)))
         );
     }
     println!("wrote      {}", output.display());

@@ -31,7 +31,7 @@ pub fn plan(
     input: &Path,
     options: &BuildOptions,
     clean: &CleanOptions,
-    cell_triangles: usize,
+    how: How,
     dir: &Path,
     json: bool,
 ) -> Result<()> {
@@ -42,6 +42,11 @@ pub fn plan(
     for note in &cleaned.notes {
         eprintln!("note: {}: {note}", input.display());
     }
+    // A budget a whole build fits is one cell of every triangle: the join builds it whole.
+    let cell_triangles = match super::build::resolve(how, &input, &mesh)? {
+        How::Cells(cells) => cells,
+        _ => mesh.triangle_count().max(1),
+    };
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let plan = cells::plan(&mesh, options, cell_triangles, dir)?;
     let file = PlanFile {

@@ -17,8 +17,9 @@ mod format;
 mod paged;
 
 pub use build::{
-    BuildError, BuildOptions, BuildStats, DEFAULT_CELL_TRIANGLES, Schedule,
-    WHOLE_BUILD_BYTES_PER_TRIANGLE, build, build_partitioned, cells, default_cells,
+    BudgetTooSmall, BuildError, BuildOptions, BuildStats, CELLS_FLOOR_BYTES_PER_TRIANGLE,
+    DEFAULT_CELL_TRIANGLES, Schedule, WHOLE_BUILD_BYTES_PER_TRIANGLE, build, build_partitioned,
+    cells, cells_build_bytes, cells_within, default_cells, whole_build_bytes,
 };
 pub use check::{TreeProblem, check, check_cut};
 pub use extract::{Cut, cut_at_bound, cut_at_error, cut_at_merges, cut_at_triangles};

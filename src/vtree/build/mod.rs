@@ -26,7 +26,11 @@ mod greedy;
 mod leaves;
 mod node;
 pub mod partition;
-pub use partition::{DEFAULT_CELL_TRIANGLES, WHOLE_BUILD_BYTES_PER_TRIANGLE, default_cells};
+pub use partition::{
+    BudgetTooSmall, CELLS_FLOOR_BYTES_PER_TRIANGLE, DEFAULT_CELL_TRIANGLES,
+    WHOLE_BUILD_BYTES_PER_TRIANGLE, cells_build_bytes, cells_within, default_cells,
+    whole_build_bytes,
+};
 mod passes;
 mod pricing;
 mod queue;

@@ -32,7 +32,11 @@ mod kd;
 mod number;
 mod spill;
 
-pub use budget::{DEFAULT_CELL_TRIANGLES, WHOLE_BUILD_BYTES_PER_TRIANGLE, default_cells};
+pub use budget::{
+    BudgetTooSmall, CELLS_FLOOR_BYTES_PER_TRIANGLE, DEFAULT_CELL_TRIANGLES,
+    WHOLE_BUILD_BYTES_PER_TRIANGLE, cells_build_bytes, cells_within, default_cells,
+    whole_build_bytes,
+};
 
 use super::node::{SAMPLES, Samples};
 use super::passes::SlotSet;
