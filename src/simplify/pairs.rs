@@ -1,23 +1,38 @@
 //! Candidate non-edge pairs: vertices closer than a threshold (Garland & Heckbert 1997 §3; Tao et al. §2.3
-//! "any two vertices"). Found with a uniform grid of cell size ≥ the threshold, so each query looks at
-//! the 27 cells around a point: O(n) for surfaces, never O(n²).
+//! "any two vertices"). Found with a uniform grid, so each query looks at the cells around a point:
+//! O(n) for surfaces, never O(n²).
 //!
 //! The grid is the points sorted by cell, each cell packed into one integer key (x, y, z fields, z
-//! lowest): a column of cells (fixed x and y) is one contiguous run ordered by z, so the 27 cells
-//! around a point are 9 key ranges. Points are queried in key order, and each range's bounds are the
-//! query's key plus a constant, so each of the 9 ranges is found by a cursor that only moves forward:
-//! no hash table and no search from scratch, and the grid is read as 9 nearly sequential streams.
-//! (It replaced a hash table of columns, a cache miss per lookup and 9 a point: on the dragon the
-//! search went from 0.13 to 0.09 s, on a 14-million-triangle model from 8.5 to 6.6 s.)
+//! lowest): a column of cells (fixed x and y) is one contiguous run ordered by z, so a box of cells
+//! around a point is one key range a column. Points are queried in key order, and each range's
+//! bounds are the query's key plus a constant, so each column's range is found by a cursor that
+//! only moves forward: no hash table and no search from scratch, and the grid is read as nearly
+//! sequential streams. (It replaced a hash table of columns, a cache miss per lookup and 9 a point:
+//! on the dragon the search went from 0.13 to 0.09 s, on a 14-million-triangle model from 8.5 to
+//! 6.6 s.)
+//!
+//! A point keeps only its few nearest partners, which on a fine mesh lie a few edges away, while
+//! the radius (a share of the model's size) may hold hundreds of points: a box as wide as the
+//! radius around every point made the search grow with the square of the resolution (a
+//! 100-million-triangle city spent 744 s in it). So [`close_pairs_near`] searches a box that
+//! covers a shorter distance `near` first, and the whole radius only for the points whose partners
+//! that does not settle: when a point has kept its partners among the points within `near`, every
+//! point it did not look at is farther than all of them, and the answer is the same.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 /// Bits of each cell coordinate in a key.
 const FIELD_BITS: u32 = 21;
+/// Cells the near box reaches on each side of a point's own.
+const NEAR_CELLS: u32 = 2;
+/// Cells the whole radius reaches at most: the cells are never narrower than the radius over
+/// this, so that a point the near box does not settle costs at most this squared columns.
+const MAX_REACH: u32 = 12;
 /// Cells per axis at most: a few of a field's values are kept free, for the neighbours of the first
-/// and last cells (coordinates start at 1, so that the first one's neighbour is 0).
-const MAX_CELLS: f32 = ((1u32 << FIELD_BITS) - 4) as f32;
+/// and last cells (coordinates start at `MAX_REACH + 1`, so that the first one's neighbours are
+/// never negative).
+const MAX_CELLS: f32 = ((1u32 << FIELD_BITS) - 4 - 2 * MAX_REACH) as f32;
 /// Points a task sweeps with one set of cursors.
 const SWEEP_CHUNK: usize = 8192;
 /// How many of a point's close points are put in order at a time: more than a fine mesh's 2-ring
@@ -41,26 +56,76 @@ pub fn close_pairs(
     max_per_point: usize,
     keep: impl Fn(u32, u32) -> bool + Sync,
 ) -> Vec<(u32, u32)> {
+    close_pairs_near(points, radius, radius, max_per_point, keep)
+}
+
+/// [`close_pairs`], the same pairs, for points most of which have their partners within `near`
+/// (at most `radius`; a mesh's vertices, a few edge lengths): each point searches a box covering
+/// `near` first, and the whole radius only when that did not settle its partners.
+pub fn close_pairs_near(
+    points: &[(u32, Vec3)],
+    radius: f32,
+    near: f32,
+    max_per_point: usize,
+    keep: impl Fn(u32, u32) -> bool + Sync,
+) -> Vec<(u32, u32)> {
     if points.len() < 2 || radius <= 0.0 || max_per_point == 0 || !radius.is_finite() {
         return Vec::new();
     }
-    let sorted = grid(points, radius);
-    let r2 = radius * radius;
-    // The 9 columns around a cell, as offsets from its key to the key of the column's lowest cell
-    // (z − 1); the column's 3 cells are that key and the next two.
+    let near = if near.is_finite() && near > 0.0 {
+        near.clamp(radius * NEAR_CELLS as f32 / MAX_REACH as f32, radius)
+    } else {
+        radius
+    };
+    let (sorted, cell) = grid(points, near / NEAR_CELLS as f32);
+    // What the near box covers for certain (any point this close is in it), and the cells the
+    // whole radius reaches.
+    let covered = (NEAR_CELLS as f32 * cell).min(radius);
+    let c2 = covered * covered;
+    let reach = ((radius / cell).ceil() as i64).clamp(1, MAX_REACH as i64 + 1);
     let field = |d: i64| d << FIELD_BITS;
-    let columns: [u64; 9] = std::array::from_fn(|k| {
-        let (dx, dy) = (k as i64 / 3 - 1, k as i64 % 3 - 1);
-        (field(field(dx)) + field(dy) - 1) as u64
-    });
+    let column = |dx: i64, dy: i64, dz: i64| (field(field(dx)) + field(dy) + dz) as u64;
+    let n = NEAR_CELLS as i64;
+    // The near box's columns, as offsets from a cell's key to the key of the column's lowest cell.
+    let columns: Vec<u64> = (-n..=n)
+        .flat_map(|dx| (-n..=n).map(move |dy| column(dx, dy, -n)))
+        .collect();
+    let height = 2 * NEAR_CELLS as u64;
+    let order = |a: &(f32, u32), b: &(f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+    // Nearest first, and `keep` asked only until enough are kept: most close points of a fine mesh
+    // are its own neighbours, which `keep` rejects. Only the nearest few are put in order, then the
+    // rest if those were not enough. Returns how many were kept.
+    let choose = |g: &Gridded, near: &mut Vec<(f32, u32)>, out: &mut Vec<(u32, u32)>| {
+        let mut kept = 0;
+        let mut from = 0;
+        while kept < max_per_point && from < near.len() {
+            let rest = &mut near[from..];
+            let take = NEAREST_FIRST.min(rest.len());
+            if take < rest.len() {
+                rest.select_nth_unstable_by(take - 1, order);
+            }
+            rest[..take].sort_unstable_by(order);
+            for &(_, other) in &rest[..take] {
+                if kept < max_per_point && keep(g.id, other) {
+                    out.push((g.id.min(other), g.id.max(other)));
+                    kept += 1;
+                }
+            }
+            from += take;
+        }
+        kept
+    };
     let mut pairs: Vec<(u32, u32)> = sorted
         .par_chunks(SWEEP_CHUNK)
         .flat_map_iter(|part| {
             let first = part[0].key;
-            let mut cursors = columns.map(|offset| {
-                let low = first.wrapping_add(offset);
-                sorted.partition_point(|g| g.key < low)
-            });
+            let mut cursors: Vec<usize> = columns
+                .iter()
+                .map(|&offset| {
+                    let low = first.wrapping_add(offset);
+                    sorted.partition_point(|g| g.key < low)
+                })
+                .collect();
             let mut near: Vec<(f32, u32)> = Vec::new();
             let mut out = Vec::new();
             for g in part {
@@ -68,36 +133,46 @@ pub fn close_pairs(
                 for (cursor, &offset) in cursors.iter_mut().zip(&columns) {
                     let low = g.key.wrapping_add(offset);
                     *cursor = seek(&sorted, *cursor, low);
-                    for h in sorted[*cursor..].iter().take_while(|h| h.key <= low + 2) {
+                    for h in sorted[*cursor..]
+                        .iter()
+                        .take_while(|h| h.key <= low + height)
+                    {
                         let d2 = g.p.distance_squared(h.p);
-                        if h.id != g.id && d2 <= r2 {
+                        if h.id != g.id && d2 <= c2 {
                             near.push((d2, h.id));
                         }
                     }
                 }
-                // Nearest first, and `keep` asked only until enough are kept: most close points of
-                // a fine mesh are its own neighbours, which `keep` rejects. Only the nearest few
-                // are put in order, then the rest if those were not enough: on a dense surface a
-                // point has hundreds within the radius (a 100 M-triangle terrain: ~300), and
-                // sorting them all took most of its build's search.
-                let order =
-                    |a: &(f32, u32), b: &(f32, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-                let mut kept = 0;
-                let mut from = 0;
-                while kept < max_per_point && from < near.len() {
-                    let rest = &mut near[from..];
-                    let take = NEAREST_FIRST.min(rest.len());
-                    if take < rest.len() {
-                        rest.select_nth_unstable_by(take - 1, order);
-                    }
-                    rest[..take].sort_unstable_by(order);
-                    for &(_, other) in &rest[..take] {
-                        if kept < max_per_point && keep(g.id, other) {
-                            out.push((g.id.min(other), g.id.max(other)));
-                            kept += 1;
+                let settled = out.len();
+                if choose(g, &mut near, &mut out) == max_per_point || covered >= radius {
+                    continue;
+                }
+                // Too few kept within `covered`: a box twice as wide, and so on to the whole
+                // radius, a column at a time (few points get here: on a 100 M-triangle city, 6 %
+                // at four edge lengths, 0.03 % at eight).
+                let mut k = (2 * n).min(reach);
+                loop {
+                    out.truncate(settled);
+                    near.clear();
+                    let reached = (k as f32 * cell).min(radius);
+                    let k2 = reached * reached;
+                    for dx in -k..=k {
+                        for dy in -k..=k {
+                            let low = g.key.wrapping_add(column(dx, dy, -k));
+                            let high = low + 2 * k as u64;
+                            let start = sorted.partition_point(|h| h.key < low);
+                            for h in sorted[start..].iter().take_while(|h| h.key <= high) {
+                                let d2 = g.p.distance_squared(h.p);
+                                if h.id != g.id && d2 <= k2 {
+                                    near.push((d2, h.id));
+                                }
+                            }
                         }
                     }
-                    from += take;
+                    if choose(g, &mut near, &mut out) == max_per_point || reached >= radius {
+                        break;
+                    }
+                    k = (2 * k).min(reach);
                 }
             }
             out
@@ -108,20 +183,23 @@ pub fn close_pairs(
     pairs
 }
 
-/// The points sorted by cell key. A cell is at least `radius` wide (a little more, so that two
-/// points exactly `radius` apart are never two cells apart by rounding), and wider where the points
-/// span more cells than a key's fields hold.
-fn grid(points: &[(u32, Vec3)], radius: f32) -> Vec<Gridded> {
+/// The points sorted by cell key, and the cell's width: at least `cell` (a little more, so that
+/// two points exactly a cell apart are never two cells apart by rounding), and wider where the
+/// points span more cells than a key's fields hold.
+fn grid(points: &[(u32, Vec3)], cell: f32) -> (Vec<Gridded>, f32) {
     let (low, high) = points.par_iter().map(|&(_, p)| (p, p)).reduce(
         || (Vec3::INFINITY, Vec3::NEG_INFINITY),
         |a, b| (a.0.min(b.0), a.1.max(b.1)),
     );
-    let cell = (radius * 1.001).max((high - low).max_element() / MAX_CELLS);
+    let cell = (cell * 1.001).max((high - low).max_element() / MAX_CELLS);
     let mut sorted: Vec<Gridded> = points
         .par_iter()
         .map(|&(id, p)| {
-            // +1: every cell has a neighbour cell with non-negative coordinates.
-            let [x, y, z] = ((p - low) / cell).floor().to_array().map(|c| c as u64 + 1);
+            // Every cell within the reach has non-negative coordinates.
+            let [x, y, z] = ((p - low) / cell)
+                .floor()
+                .to_array()
+                .map(|c| c as u64 + MAX_REACH as u64 + 1);
             Gridded {
                 key: (((x << FIELD_BITS) | y) << FIELD_BITS) | z,
                 id,
@@ -130,7 +208,7 @@ fn grid(points: &[(u32, Vec3)], radius: f32) -> Vec<Gridded> {
         })
         .collect();
     sorted.par_sort_unstable_by_key(|g| (g.key, g.id));
-    sorted
+    (sorted, cell)
 }
 
 /// The first index at or after `from` whose key is at least `key`: a galloping search, since the
@@ -263,6 +341,46 @@ mod tests {
                 let got = close_pairs(&pts, 0.3, max, keep);
                 assert!(got.len() > 500, "seed {seed}: {} pairs", got.len());
                 assert_eq!(got, brute_force(&pts, 0.3, max, keep), "seed {seed}");
+            }
+        }
+    }
+
+    /// Searching a shorter distance first changes nothing: for any `near`, from a twentieth of
+    /// the radius (most points then settled in the near box, the rest by the whole radius) to
+    /// all of it, the pairs are the brute force's, on clustered clouds and on a dense one whose
+    /// `keep` rejects most points.
+    #[test]
+    fn searching_near_first_finds_the_same_pairs() {
+        for seed in 0..30u64 {
+            let mut rnd = crate::simplify::test_random(500 + seed);
+            let n = 50 + (rnd() * 900.0) as u32;
+            let pts: Vec<(u32, Vec3)> = (0..n)
+                .map(|i| {
+                    let p = match i % 3 {
+                        0 => Vec3::new(rnd(), rnd(), 0.0),
+                        1 => Vec3::new(rnd(), rnd() * 0.05, rnd()),
+                        _ => Vec3::new((rnd() * 16.0).floor() / 16.0, rnd(), 0.5),
+                    };
+                    (i, p)
+                })
+                .collect();
+            let radius = 0.05 + rnd() * 0.3;
+            let max = 1 + (rnd() * 3.0) as usize;
+            let keep = |i: u32, j: u32| !(i + 2 * j).is_multiple_of(3 + (seed as u32 % 5));
+            let want = brute_force(&pts, radius, max, keep);
+            for near in [
+                radius / 20.0,
+                radius / 7.0,
+                radius / 3.0,
+                radius,
+                0.0,
+                f32::NAN,
+            ] {
+                assert_eq!(
+                    close_pairs_near(&pts, radius, near, max, keep),
+                    want,
+                    "seed {seed}, near {near}"
+                );
             }
         }
     }

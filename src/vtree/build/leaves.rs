@@ -4,7 +4,7 @@ use super::NONE;
 use super::node::cone_of;
 use crate::mesh::Mesh;
 use crate::simplify::metric::PairEnd;
-use crate::simplify::pairs::close_pairs;
+use crate::simplify::pairs::close_pairs_near;
 use crate::simplify::quadric::Quadric;
 use crate::vtree::Node;
 use glam::Vec3;
@@ -144,6 +144,10 @@ pub(super) fn close_pairs_for(
     }
 }
 
+/// How far, in mean edge lengths, a vertex's close pairs are searched for first (the whole radius
+/// only where that finds too few): a 2-ring reaches about two edges out.
+const NEAR_EDGES: f32 = 4.0;
+
 pub(super) fn close_non_edge_pairs(
     positions: &[Vec3],
     edges: &[(u32, u32)],
@@ -156,7 +160,14 @@ pub(super) fn close_non_edge_pairs(
         .enumerate()
         .map(|(i, p)| (i as u32, *p))
         .collect();
-    close_pairs(&points, distance, per_vertex, |i, j| {
+    // A vertex's nearest points outside its 2-ring are a few edges away: searched there first.
+    let mean_edge = edges
+        .par_iter()
+        .map(|&(a, b)| positions[a as usize].distance(positions[b as usize]) as f64)
+        .sum::<f64>()
+        / edges.len().max(1) as f64;
+    let near = NEAR_EDGES * mean_edge as f32;
+    close_pairs_near(&points, distance, near, per_vertex, |i, j| {
         !adjacency.within_two_rings(i, j)
     })
 }
