@@ -388,6 +388,26 @@ fn paged_round_trip_keeps_links_and_widens_every_bound() {
 
 /// Pages are connected pieces of the tree of at most `PAGE_NODES` nodes, each node in exactly
 /// one, each page's root its only node whose parent lies outside it; the root's page is last.
+/// A paged file written to disk keeps its coded pages in a temporary file beside it until they
+/// are written in page order: the same bytes as in memory, and nothing left in the folder.
+#[test]
+fn pages_waiting_on_disk_make_the_same_file() {
+    let tree = paged_tree();
+    let dir = std::env::temp_dir().join(format!("vunify-paged-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("paged.vtree");
+    vtree::write_with(&tree, &path, vtree::Encoding::Paged).unwrap();
+    assert!(
+        std::fs::read(&path).unwrap() == vtree::to_bytes_with(&tree, vtree::Encoding::Paged)
+    );
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("paged.vtree")]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn pages_are_connected_subtrees_of_bounded_size() {
     let tree = paged_tree();

@@ -93,15 +93,55 @@ pub fn to_bytes(tree: &VertexTree) -> Vec<u8> {
 /// Serialises a tree with `encoding`.
 pub fn to_bytes_with(tree: &VertexTree, encoding: Encoding) -> Vec<u8> {
     let mut out = Vec::new();
-    write_to(tree, encoding, &mut out).expect("writing to memory cannot fail");
+    write_to(tree, encoding, None, &mut out).expect("writing to memory cannot fail");
     out
 }
 
 /// Writes a tree's file to `out`: the header and the section table (their checksums computed from
 /// the tree's arrays), then each section straight from the array that holds it.
+/// A section's bytes: pieces in memory, or the coded pages.
+enum Body<'a> {
+    Pieces(Vec<&'a [u8]>),
+    Pages(&'a super::paged::Pages),
+}
+
+impl<'a> Body<'a> {
+    fn one(bytes: &'a [u8]) -> Body<'a> {
+        Body::Pieces(vec![bytes])
+    }
+
+    fn len(&self) -> u64 {
+        match self {
+            Body::Pieces(pieces) => pieces.iter().map(|p| p.len() as u64).sum(),
+            Body::Pages(pages) => pages.bytes(),
+        }
+    }
+
+    fn crc(&self) -> u32 {
+        match self {
+            Body::Pieces(pieces) => {
+                let mut hasher = crc32fast::Hasher::new();
+                pieces.iter().for_each(|p| hasher.update(p));
+                hasher.finalize()
+            }
+            Body::Pages(pages) => pages.crc(),
+        }
+    }
+
+    fn write_to(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+        match self {
+            Body::Pieces(pieces) => pieces.iter().try_for_each(|p| out.write_all(p)),
+            Body::Pages(pages) => pages.write_to(out),
+        }
+    }
+}
+
+/// Writes the file to `out`; the pages of a paged file wait in a temporary file in `spill` when
+/// given, else in memory.
 fn write_to(
     tree: &VertexTree,
     encoding: Encoding,
+    spill: Option<&Path>,
     out: &mut dyn std::io::Write,
 ) -> std::io::Result<()> {
     let mut meta = Vec::with_capacity(META_LEN);
@@ -130,27 +170,30 @@ fn write_to(
     }
     // The in-memory layouts are little-endian Pod on every platform vunify targets.
     const { assert!(cfg!(target_endian = "little")) };
-    let paged = (encoding == Encoding::Paged).then(|| super::paged::encode(tree, node_colors));
+    let paged = match encoding {
+        Encoding::Paged => Some(super::paged::encode(tree, node_colors, spill)?),
+        Encoding::Exact => None,
+    };
     crate::memory::trace_phase("encoding");
     // Each section as the pieces it is written from (the pages one after another, never copied
     // into one block: at 14 M triangles that copy was 420 MB on top of the tree).
-    let (mut sections, mut tags): (Vec<Vec<&[u8]>>, Vec<[u8; 4]>) = match &paged {
+    let (mut sections, mut tags): (Vec<Body>, Vec<[u8; 4]>) = match &paged {
         None => (
             vec![
-                vec![&meta],
-                vec![bytemuck::cast_slice(&tree.nodes)],
-                vec![bytemuck::cast_slice(&tree.triangles)],
-                vec![bytemuck::cast_slice(&tree.vanish_offsets)],
-                vec![&parts],
+                Body::one(&meta),
+                Body::one(bytemuck::cast_slice(&tree.nodes)),
+                Body::one(bytemuck::cast_slice(&tree.triangles)),
+                Body::one(bytemuck::cast_slice(&tree.vanish_offsets)),
+                Body::one(&parts),
             ],
             SECTIONS.to_vec(),
         ),
         Some(p) => (
             vec![
-                vec![&meta],
-                vec![&p.directory],
-                p.pages.iter().map(Vec::as_slice).collect(),
-                vec![&parts],
+                Body::one(&meta),
+                Body::one(&p.directory),
+                Body::Pages(&p.pages),
+                Body::one(&parts),
             ],
             PAGED_SECTIONS.to_vec(),
         ),
@@ -169,7 +212,7 @@ fn write_to(
             texs.extend_from_slice(&(t.len() as u64).to_le_bytes());
             texs.extend_from_slice(t);
         }
-        sections.extend([vec![&uvtx[..]], vec![&texs[..]]]);
+        sections.extend([Body::one(&uvtx[..]), Body::one(&texs[..])]);
         tags.extend(&OPTIONAL[..2]);
     }
     let mut matl = Vec::new();
@@ -178,19 +221,19 @@ fn write_to(
         matl.extend_from_slice(&(json.len() as u32).to_le_bytes());
         matl.extend_from_slice(&json);
         matl.extend_from_slice(bytemuck::cast_slice(&m.of));
-        sections.push(vec![&matl]);
+        sections.push(Body::one(&matl));
         tags.push(OPTIONAL[2]);
     }
     let wedg = tree.wedges.as_ref().map(wedge_section);
     if let Some(w) = &wedg {
-        sections.push(vec![w]);
+        sections.push(Body::one(w));
         tags.push(OPTIONAL[3]);
     }
     let mut tint = Vec::new();
     if let Some(w) = tree.wedges.as_ref().filter(|w| !w.tint.is_empty()) {
         tint.extend_from_slice(&(w.tint.len() as u32).to_le_bytes());
         tint.extend_from_slice(bytemuck::cast_slice(&w.tint));
-        sections.push(vec![&tint]);
+        sections.push(Body::one(&tint));
         tags.push(OPTIONAL[4]);
     }
     let table_end = HEADER + TABLE_ENTRY * sections.len();
@@ -211,23 +254,21 @@ fn write_to(
     head.extend_from_slice(&version.to_le_bytes());
     head.extend_from_slice(&(sections.len() as u32).to_le_bytes());
     let mut offset = (table_end + 4) as u64;
-    for (tag, pieces) in tags.iter().zip(&sections) {
-        let len: u64 = pieces.iter().map(|p| p.len() as u64).sum();
-        let mut hasher = crc32fast::Hasher::new();
-        pieces.iter().for_each(|p| hasher.update(p));
+    for (tag, body) in tags.iter().zip(&sections) {
+        let len = body.len();
         head.extend_from_slice(tag);
         head.extend_from_slice(&0u32.to_le_bytes());
         head.extend_from_slice(&offset.to_le_bytes());
         head.extend_from_slice(&len.to_le_bytes());
-        head.extend_from_slice(&hasher.finalize().to_le_bytes());
+        head.extend_from_slice(&body.crc().to_le_bytes());
         head.extend_from_slice(&0u32.to_le_bytes());
         offset += len;
     }
     let table_crc = crc(&head);
     head.extend_from_slice(&table_crc.to_le_bytes());
     out.write_all(&head)?;
-    for piece in sections.iter().flatten() {
-        out.write_all(piece)?;
+    for body in &sections {
+        body.write_to(out)?;
     }
     Ok(())
 }
@@ -268,7 +309,16 @@ pub fn write_with(tree: &VertexTree, path: &Path, encoding: Encoding) -> std::io
             )
         })
     };
-    crate::export::write_atomic_checked(path, |out| write_to(tree, encoding, out), check)
+    // The coded pages wait beside the output, not in memory.
+    let spill = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    crate::export::write_atomic_checked(
+        path,
+        |out| write_to(tree, encoding, Some(spill), out),
+        check,
+    )
 }
 
 pub fn read(path: &Path) -> Result<VertexTree, FormatError> {

@@ -45,7 +45,91 @@ pub struct PageEntry {
 /// What [`encode`] makes: the directory, and the pages, which the file holds back to back.
 pub struct Encoded {
     pub directory: Vec<u8>,
-    pub pages: Vec<Vec<u8>>,
+    pub pages: Pages,
+}
+
+/// The coded pages, in page order: in memory, or in a temporary file while a file is written
+/// (at a hundred million triangles they are 2.8 GB, which need not share memory with the tree).
+pub struct Pages {
+    /// Each page's length and CRC-32.
+    entries: Vec<(u32, u32)>,
+    store: Store,
+}
+
+enum Store {
+    Memory(Vec<Vec<u8>>),
+    /// The pages as they were coded (children's pages first), and where each begins.
+    File {
+        file: std::fs::File,
+        at: Vec<u64>,
+    },
+}
+
+impl Pages {
+    /// Room for `count` pages, in a temporary file in `spill` if given.
+    fn new(count: usize, spill: Option<&std::path::Path>) -> std::io::Result<Pages> {
+        let store = match spill {
+            Some(dir) => Store::File {
+                file: tempfile::tempfile_in(dir)?,
+                at: vec![0; count],
+            },
+            None => Store::Memory(vec![Vec::new(); count]),
+        };
+        Ok(Pages {
+            entries: vec![(0, 0); count],
+            store,
+        })
+    }
+
+    /// Page `p`'s bytes, in any order of pages.
+    fn put(&mut self, p: usize, body: Vec<u8>) -> std::io::Result<()> {
+        self.entries[p] = (body.len() as u32, crc32fast::hash(&body));
+        match &mut self.store {
+            Store::Memory(pages) => pages[p] = body,
+            Store::File { file, at } => {
+                use std::io::{Seek, Write};
+                at[p] = file.stream_position()?;
+                file.write_all(&body)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Each page's length and CRC-32, in page order.
+    pub fn entries(&self) -> &[(u32, u32)] {
+        &self.entries
+    }
+
+    /// The bytes of all pages.
+    pub fn bytes(&self) -> u64 {
+        self.entries.iter().map(|&(len, _)| len as u64).sum()
+    }
+
+    /// The CRC-32 of all pages back to back, from each page's.
+    pub fn crc(&self) -> u32 {
+        let mut all = crc32fast::Hasher::new();
+        for &(len, crc) in &self.entries {
+            all.combine(&crc32fast::Hasher::new_with_initial_len(crc, len as u64));
+        }
+        all.finalize()
+    }
+
+    /// Writes the pages back to back in page order.
+    pub fn write_to(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+        match &self.store {
+            Store::Memory(pages) => pages.iter().try_for_each(|p| out.write_all(p)),
+            Store::File { file, at } => {
+                use std::os::unix::fs::FileExt;
+                let mut buffer = Vec::new();
+                for (&(len, _), &offset) in self.entries.iter().zip(at) {
+                    buffer.resize(len as usize, 0);
+                    file.read_exact_at(&mut buffer, offset)?;
+                    out.write_all(&buffer)?;
+                }
+                Ok(())
+            }
+        }
+    }
 }
 
 /// The pages of `tree`: each node's page, numbered by their roots in increasing order (a page's

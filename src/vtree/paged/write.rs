@@ -1,7 +1,7 @@
 //! Writing pages: [`encode`] cuts a tree into pages and codes each on its own.
 
 use super::codes::*;
-use super::{DIRECTORY_ENTRY, Encoded, PageEntry, paginate};
+use super::{DIRECTORY_ENTRY, Encoded, PageEntry, Pages, paginate};
 use crate::color::srgb8;
 use crate::vtree::{NONE, Node, VertexTree};
 use glam::Vec3;
@@ -9,7 +9,12 @@ use rayon::prelude::*;
 
 /// Serialises `tree`'s nodes and triangles as pages. `colors`: whether node colours are stored
 /// (white otherwise).
-pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
+/// The pages wait in a temporary file in `spill` when given, else in memory.
+pub fn encode(
+    tree: &VertexTree,
+    colors: bool,
+    spill: Option<&std::path::Path>,
+) -> std::io::Result<Encoded> {
     let (page_of, roots) = paginate(tree);
     let n = tree.nodes.len();
     let scale = scale_for(tree.diagonal());
@@ -25,7 +30,7 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
         roots: vec![Stored::default(); roots.len()],
         page_error: vec![0f32; roots.len()],
     };
-    let mut bodies: Vec<Vec<u8>> = vec![Vec::new(); roots.len()];
+    let mut bodies = Pages::new(roots.len(), spill)?;
     for wave in waves(tree, &members, &page_of) {
         let pages: Vec<(usize, Codes, Vec<u8>)> = wave
             .par_iter()
@@ -40,7 +45,7 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
             // The page's root is its last node (a parent's id is above its children's).
             done.roots[p] = codes.stored(members[p].len() - 1);
             done.page_error[p] = codes.page_error;
-            bodies[p] = body;
+            bodies.put(p, body)?;
         }
     }
     let position_error = done.page_error.iter().copied().fold(0.0, f32::max);
@@ -49,11 +54,11 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
     directory.extend_from_slice(&scale.to_le_bytes());
     directory.extend_from_slice(&position_error.to_le_bytes());
     let mut offset = 0u64;
-    for (p, body) in bodies.iter().enumerate() {
+    for (p, &(length, crc)) in bodies.entries().iter().enumerate() {
         let entry = PageEntry {
             offset,
-            length: body.len() as u32,
-            crc: crc32fast::hash(body),
+            length,
+            crc,
             nodes: members[p].len() as u32,
             root: roots[p],
         };
@@ -62,12 +67,12 @@ pub fn encode(tree: &VertexTree, colors: bool) -> Encoded {
         directory.extend_from_slice(&entry.crc.to_le_bytes());
         directory.extend_from_slice(&entry.nodes.to_le_bytes());
         directory.extend_from_slice(&entry.root.to_le_bytes());
-        offset += body.len() as u64;
+        offset += length as u64;
     }
-    Encoded {
+    Ok(Encoded {
         directory,
         pages: bodies,
-    }
+    })
 }
 
 /// Bytes of the directory before its entries: page count (u32), scale (f32), position error (f32).
