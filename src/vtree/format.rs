@@ -236,9 +236,6 @@ fn write_to(
         sections.push(Body::one(&tint));
         tags.push(OPTIONAL[4]);
     }
-    let table_end = HEADER + TABLE_ENTRY * sections.len();
-    let mut head = Vec::with_capacity(table_end + 4);
-    head.extend_from_slice(&MAGIC);
     // Appearance is what version 2 added: a reader from before it would skip those sections as
     // unknown and draw the model untextured, so it is told the file is newer instead.
     // Wedges, version 3's, likewise.
@@ -251,10 +248,24 @@ fn write_to(
     } else {
         OLDEST_FORMAT_VERSION
     };
+    write_sections(out, version, &tags, &sections)
+}
+
+/// The header, the section table (each section's tag, offset, length and CRC-32) and its CRC,
+/// then the sections.
+fn write_sections(
+    out: &mut dyn std::io::Write,
+    version: u32,
+    tags: &[[u8; 4]],
+    sections: &[Body],
+) -> std::io::Result<()> {
+    let table_end = HEADER + TABLE_ENTRY * sections.len();
+    let mut head = Vec::with_capacity(table_end + 4);
+    head.extend_from_slice(&MAGIC);
     head.extend_from_slice(&version.to_le_bytes());
     head.extend_from_slice(&(sections.len() as u32).to_le_bytes());
     let mut offset = (table_end + 4) as u64;
-    for (tag, body) in tags.iter().zip(&sections) {
+    for (tag, body) in tags.iter().zip(sections) {
         let len = body.len();
         head.extend_from_slice(tag);
         head.extend_from_slice(&0u32.to_le_bytes());
@@ -267,7 +278,7 @@ fn write_to(
     let table_crc = crc(&head);
     head.extend_from_slice(&table_crc.to_le_bytes());
     out.write_all(&head)?;
-    for body in &sections {
+    for body in sections {
         body.write_to(out)?;
     }
     Ok(())
