@@ -397,9 +397,7 @@ fn pages_waiting_on_disk_make_the_same_file() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("paged.vtree");
     vtree::write_with(&tree, &path, vtree::Encoding::Paged).unwrap();
-    assert!(
-        std::fs::read(&path).unwrap() == vtree::to_bytes_with(&tree, vtree::Encoding::Paged)
-    );
+    assert!(std::fs::read(&path).unwrap() == vtree::to_bytes_with(&tree, vtree::Encoding::Paged));
     let names: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name())
