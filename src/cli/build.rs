@@ -61,7 +61,7 @@ pub struct BuildArgs {
     /// Keep the process's peak resident memory within SIZE (bytes, or with K, M, G or T for
     /// powers of 1024: 64M, 8G, 1.5G): whole while a whole build fits, else in the largest cells
     /// that do, chosen after the input is read from a measured model (docs/VERTEX_TREE.md,
-    /// "Memory"). A build in cells needs about 145 bytes a triangle however small its cells: a
+    /// "Memory"). A build in cells needs about 135 bytes a triangle however small its cells: a
     /// SIZE below what the input needs is refused, saying how much would do.
     #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
     memory: Option<u64>,
