@@ -54,14 +54,14 @@ pub struct BuildArgs {
     /// whole build's, of slightly lower quality. Meshes with vertex colours, texture coordinates or
     /// materials, and meshes of at most N triangles, are built whole. Default: the whole mesh at
     /// once while that fits in three quarters of this machine's memory (a whole build peaks at
-    /// about 300 bytes a triangle), in cells of 1,000,000 beyond (a note says so; a huge N builds
-    /// whole anyway).
+    /// about 300 bytes a triangle), beyond that in the cells that budget allows, at most
+    /// 1,000,000 (a note says so; a huge N builds whole anyway).
     #[arg(long, value_name = "N")]
     cell_triangles: Option<usize>,
     /// Keep the process's peak resident memory within SIZE (bytes, or with K, M, G or T for
     /// powers of 1024: 64M, 8G, 1.5G): whole while a whole build fits, else in the largest cells
     /// that do, chosen after the input is read from a measured model (docs/VERTEX_TREE.md,
-    /// "Memory"). A build in cells needs about 135 bytes a triangle however small its cells: a
+    /// "A budget"). A build in cells needs about 135 bytes a triangle however small its cells: a
     /// SIZE below what the input needs is refused, saying how much would do.
     #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
     memory: Option<u64>,
