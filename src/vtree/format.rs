@@ -5,6 +5,7 @@
 //! before it is returned. Any single changed byte is detected (CRC-32 catches every burst of ≤ 32 bits,
 //! and the sections plus the table cover the file exactly).
 
+use super::section::Body;
 use super::{Node, PartInfo, VertexTree};
 use crate::simplify::Metric;
 use std::path::{Path, PathBuf};
@@ -99,43 +100,6 @@ pub fn to_bytes_with(tree: &VertexTree, encoding: Encoding) -> Vec<u8> {
 
 /// Writes a tree's file to `out`: the header and the section table (their checksums computed from
 /// the tree's arrays), then each section straight from the array that holds it.
-/// A section's bytes: pieces in memory, or the coded pages.
-enum Body<'a> {
-    Pieces(Vec<&'a [u8]>),
-    Pages(&'a super::paged::Pages),
-}
-
-impl<'a> Body<'a> {
-    fn one(bytes: &'a [u8]) -> Body<'a> {
-        Body::Pieces(vec![bytes])
-    }
-
-    fn len(&self) -> u64 {
-        match self {
-            Body::Pieces(pieces) => pieces.iter().map(|p| p.len() as u64).sum(),
-            Body::Pages(pages) => pages.bytes(),
-        }
-    }
-
-    fn crc(&self) -> u32 {
-        match self {
-            Body::Pieces(pieces) => {
-                let mut hasher = crc32fast::Hasher::new();
-                pieces.iter().for_each(|p| hasher.update(p));
-                hasher.finalize()
-            }
-            Body::Pages(pages) => pages.crc(),
-        }
-    }
-
-    fn write_to(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
-        match self {
-            Body::Pieces(pieces) => pieces.iter().try_for_each(|p| out.write_all(p)),
-            Body::Pages(pages) => pages.write_to(out),
-        }
-    }
-}
-
 /// Writes the file to `out`; the pages of a paged file wait in a temporary file in `spill` when
 /// given, else in memory.
 fn write_to(

@@ -15,6 +15,7 @@ mod check;
 mod extract;
 mod format;
 mod paged;
+mod section;
 
 pub use build::{
     BudgetTooSmall, BuildError, BuildOptions, BuildStats, CELLS_FLOOR_BYTES_PER_TRIANGLE,

@@ -76,17 +76,10 @@ fn cells_for(
     threads: usize,
 ) -> Result<Option<usize>, BudgetTooSmall> {
     let whole = whole_build_bytes(triangles);
-    if whole <= budget || triangles <= MIN_CELL_TRIANGLES {
-        return if whole <= budget {
-            Ok(None)
-        } else {
-            Err(BudgetTooSmall {
-                needed: whole,
-                whole_only: true,
-            })
-        };
+    if whole <= budget {
+        return Ok(None);
     }
-    if appearance {
+    if appearance || triangles <= MIN_CELL_TRIANGLES {
         return Err(BudgetTooSmall {
             needed: whole,
             whole_only: true,
