@@ -15,6 +15,7 @@
 //! `docs/RUNTIME.md` explains it.
 
 pub mod adapt;
+pub mod cache;
 pub mod criteria;
 pub mod front;
 pub mod hierarchy;
@@ -24,6 +25,7 @@ mod trace;
 pub mod validation;
 
 pub use adapt::{FrameStats, Mode, Refiner, Settings};
+pub use cache::{CacheStats, PageCache, PageSource};
 pub use criteria::{Camera, Tests, View};
 pub use front::{CutError, Front};
 pub use hierarchy::Hierarchy;

@@ -25,13 +25,13 @@ const TABLE_ENTRY: usize = 32;
 const HEADER: usize = 16;
 /// Readers of this version accept a few unknown sections (skipped) for forward compatibility.
 const MAX_SECTIONS: u32 = 16;
-const META_LEN: usize = 32;
+pub(super) const META_LEN: usize = 32;
 const NODE_LEN: u64 = std::mem::size_of::<Node>() as u64;
 const FLAG_COLORS: u32 = 1;
 const FLAG_NORMALS: u32 = 2;
 const FLAG_ONE_SIDED: u32 = 4;
 /// Version 4: the pages store node colours (else every node is white).
-const FLAG_NODE_COLORS: u32 = 8;
+pub(super) const FLAG_NODE_COLORS: u32 = 8;
 
 const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
 /// Version 4's instead: the page directory and the pages (see [`super::paged`]).
@@ -648,12 +648,12 @@ fn appearance(
 }
 
 /// Builds the errors of one file.
-struct Fail<'a> {
-    path: &'a Path,
+pub(super) struct Fail<'a> {
+    pub(super) path: &'a Path,
 }
 
 impl Fail<'_> {
-    fn at(&self, offset: Option<u64>, kind: FormatErrorKind, message: String) -> FormatError {
+    pub(super) fn at(&self, offset: Option<u64>, kind: FormatErrorKind, message: String) -> FormatError {
         FormatError {
             path: self.path.to_path_buf(),
             offset,
@@ -662,7 +662,7 @@ impl Fail<'_> {
         }
     }
 
-    fn invalid(&self, message: String) -> FormatError {
+    pub(super) fn invalid(&self, message: String) -> FormatError {
         self.at(None, FormatErrorKind::Invalid, message)
     }
 }
@@ -670,19 +670,61 @@ impl Fail<'_> {
 /// A section: its tag, where its body starts in the file, and the body.
 type Section<'b> = ([u8; 4], u64, &'b [u8]);
 
+/// A section as the table lists it: its tag, offset, length and CRC-32.
+pub(super) type TableEntry = ([u8; 4], u64, u64, u32);
+
 /// The header, the section table and the sections, each checked (magic, version, checksums, one
 /// section after another to the end of the file, no tag twice); returns the version and the
 /// sections in file order.
 fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<(u32, Vec<Section<'b>>), FormatError> {
-    let len = bytes.len() as u64;
-    if bytes.len() < HEADER || bytes[..8] != MAGIC {
+    let (version, table) = table(bytes, bytes.len() as u64, fail)?;
+    let mut found: Vec<Section> = Vec::with_capacity(table.len());
+    for (tag, offset, length, sum) in table {
+        let body = &bytes[offset as usize..(offset + length) as usize];
+        check_body(&tag, offset, body, sum, fail)?;
+        found.push((tag, offset, body));
+    }
+    Ok((version, found))
+}
+
+/// Checks a section's body against its CRC-32 from the table.
+pub(super) fn check_body(
+    tag: &[u8; 4],
+    offset: u64,
+    body: &[u8],
+    sum: u32,
+    fail: &Fail,
+) -> Result<(), FormatError> {
+    if crc(body) != sum {
+        return Err(fail.at(
+            Some(offset),
+            FormatErrorKind::Checksum,
+            format!(
+                "section {} is corrupt (checksum mismatch)",
+                String::from_utf8_lossy(tag)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The header and the section table of a file of `len` bytes, from its first bytes (`head`: at
+/// least the header and the table, or the whole file), checked (magic, version, the table's
+/// checksum, one section after another to the end of the file, no tag twice) but not the sections'
+/// bodies; returns the version and the table in file order.
+pub(super) fn table(
+    head: &[u8],
+    len: u64,
+    fail: &Fail,
+) -> Result<(u32, Vec<TableEntry>), FormatError> {
+    if head.len() < HEADER || head[..8] != MAGIC {
         return Err(fail.at(
             Some(0),
             FormatErrorKind::NotAVtree,
             "not a .vtree file (bad magic)".into(),
         ));
     }
-    let c = Cursor { bytes };
+    let c = Cursor { bytes: head };
     let version = c.u32(8);
     if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
         let advice = if version > FORMAT_VERSION {
@@ -706,26 +748,29 @@ fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<(u32, Vec<Section<'b>>),
             format!("{count} sections; at most {MAX_SECTIONS} are allowed"),
         ));
     }
-    let table_end = HEADER + TABLE_ENTRY * count as usize;
-    if bytes.len() < table_end + 4 {
+    let table_end = table_len(count);
+    if head.len() < table_end {
         return Err(fail.at(
             Some(len),
             FormatErrorKind::Truncated,
-            format!("the file ends inside its section table ({table_end} bytes needed)"),
+            format!(
+                "the file ends inside its section table ({} bytes needed)",
+                table_end - 4
+            ),
         ));
     }
-    if crc(&bytes[..table_end]) != c.u32(table_end) {
+    if crc(&head[..table_end - 4]) != c.u32(table_end - 4) {
         return Err(fail.at(
-            Some(table_end as u64),
+            Some(table_end as u64 - 4),
             FormatErrorKind::Checksum,
             "the header or section table is corrupt (checksum mismatch)".into(),
         ));
     }
-    let mut expected = (table_end + 4) as u64;
-    let mut found: Vec<Section> = Vec::with_capacity(count as usize);
+    let mut expected = table_end as u64;
+    let mut found: Vec<TableEntry> = Vec::with_capacity(count as usize);
     for i in 0..count as usize {
         let at = HEADER + i * TABLE_ENTRY;
-        let tag: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
+        let tag: [u8; 4] = head[at..at + 4].try_into().expect("4 bytes");
         let (offset, length, sum) = (c.u64(at + 8), c.u64(at + 16), c.u32(at + 24));
         let name = String::from_utf8_lossy(&tag).into_owned();
         if offset != expected {
@@ -740,22 +785,14 @@ fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<(u32, Vec<Section<'b>>),
         let end = offset.checked_add(length).filter(|&e| e <= len).ok_or_else(|| {
             fail.at(Some(len), FormatErrorKind::Truncated, format!("section {name} ({length} bytes at {offset}) runs past the end of the {len}-byte file"))
         })?;
-        let body = &bytes[offset as usize..end as usize];
-        if crc(body) != sum {
-            return Err(fail.at(
-                Some(offset),
-                FormatErrorKind::Checksum,
-                format!("section {name} is corrupt (checksum mismatch)"),
-            ));
-        }
-        if found.iter().any(|(t, _, _)| *t == tag) {
+        if found.iter().any(|(t, ..)| *t == tag) {
             return Err(fail.at(
                 Some(at as u64),
                 FormatErrorKind::Invalid,
                 format!("section {name} appears twice"),
             ));
         }
-        found.push((tag, offset, body));
+        found.push((tag, offset, length, sum));
         expected = end;
     }
     if expected != len {
@@ -767,6 +804,15 @@ fn sections<'b>(bytes: &'b [u8], fail: &Fail) -> Result<(u32, Vec<Section<'b>>),
     }
     Ok((version, found))
 }
+
+/// The bytes of the header and a table of `count` sections, with the table's checksum.
+const fn table_len(count: u32) -> usize {
+    HEADER + TABLE_ENTRY * count as usize + 4
+}
+
+/// The most bytes a header and its table take: what a reader that streams reads before it knows
+/// where the sections are.
+pub(super) const HEAD_BYTES: usize = table_len(MAX_SECTIONS);
 
 /// The PART section: `count` parts, each a triangle count, a name length and a UTF-8 name.
 fn part_list(part_bytes: &[u8], count: u32, fail: &Fail) -> Result<Vec<PartInfo>, FormatError> {

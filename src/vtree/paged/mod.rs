@@ -16,10 +16,12 @@
 //! pages of a bounded size that are connected.
 
 mod codes;
+mod open;
 mod read;
 mod write;
 
-pub use read::{PageContext, decode_all, decode_page, directory};
+pub use open::PagedFile;
+pub use read::{DecodedPage, PageContext, decode_all, decode_page, directory};
 pub use write::{DIRECTORY_HEAD, encode};
 
 use super::{NONE, VertexTree};

@@ -19,6 +19,16 @@ pub struct DecodedPage {
     pub triangles: Vec<[u32; 3]>,
 }
 
+impl DecodedPage {
+    /// The bytes its arrays hold, as a cache counts them against its budget.
+    pub fn bytes(&self) -> u64 {
+        (self.ids.len() * 4
+            + self.nodes.len() * std::mem::size_of::<Node>()
+            + self.counts.len() * 4
+            + self.triangles.len() * 12) as u64
+    }
+}
+
 /// Reads page bytes: a cursor that fails with the page's offset in the file.
 struct Reader<'a> {
     bytes: &'a [u8],

@@ -1,0 +1,346 @@
+//! Pages of a paged tree fetched on demand into a cache with a budget (see docs/RUNTIME.md, "A
+//! streamed tree"): the part of issue 40's streamed runtime that reads, checks and keeps pages;
+//! the front that asks for them is not built on it yet.
+//!
+//! The frame's thread asks for pages ([`PageCache::request`], with a priority: the projected
+//! error of the front entries that need the page, as Nexus orders its requests) and takes what has
+//! arrived ([`PageCache::receive`]); neither waits for the disk. One reader thread fetches the
+//! most wanted page first (priorities may change while a page waits), decodes and checks it, and
+//! hands it over. Resident pages count their bytes against the budget; once over it, the least
+//! recently used pages that nothing pins (a front entry in the page, or a resident page below it)
+//! are let go. A page that cannot be read or is corrupt is reported once and never asked for again:
+//! the front stays coarse there.
+
+use crate::vtree::{DecodedPage, FormatError, PagedFile};
+use std::collections::{BinaryHeap, HashMap};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, Condvar, Mutex};
+
+/// Where pages come from: a [`PagedFile`], or in tests a file read slowly or out of order.
+pub trait PageSource: Send + Sync {
+    fn pages(&self) -> usize;
+    fn fetch(&self, page: usize) -> Result<DecodedPage, FormatError>;
+}
+
+impl PageSource for PagedFile {
+    fn pages(&self) -> usize {
+        self.entries.len()
+    }
+    fn fetch(&self, page: usize) -> Result<DecodedPage, FormatError> {
+        self.read_page(page)
+    }
+}
+
+/// What the cache holds and has done, for the panel and `render`'s statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CacheStats {
+    pub resident_bytes: u64,
+    pub budget: u64,
+    pub resident_pages: usize,
+    /// Pages asked for and not arrived yet.
+    pub pending: usize,
+    /// Pages that arrived, evicted, and could not be read, since the cache opened.
+    pub loaded: u64,
+    pub evicted: u64,
+    pub failed: u64,
+}
+
+enum Slot {
+    Absent,
+    Pending,
+    Resident {
+        page: Arc<DecodedPage>,
+        bytes: u64,
+        /// The [`PageCache::clock`] when it was last asked for or read.
+        used: u64,
+        pins: u32,
+    },
+    Failed,
+}
+
+/// The requests the reader takes from: each waiting page's current priority (its bits), and a
+/// heap that may hold stale entries (a page asked for again with another priority), skipped when
+/// popped. A page the reader has taken is no longer `wanted`.
+#[derive(Default)]
+struct Queue {
+    wanted: HashMap<u32, u32>,
+    heap: BinaryHeap<(Priority, u32)>,
+    stop: bool,
+}
+
+/// An `f32` priority ordered totally (NaN lowest), ties to the lower page.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Priority(f32);
+
+impl Eq for Priority {}
+impl PartialOrd for Priority {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Priority {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        let key = |p: f32| if p.is_nan() { f32::NEG_INFINITY } else { p };
+        key(self.0).total_cmp(&key(o.0))
+    }
+}
+
+struct Shared {
+    queue: Mutex<Queue>,
+    wake: Condvar,
+}
+
+/// A page that arrived, or why it could not.
+type Arrival = (u32, Result<DecodedPage, FormatError>);
+
+pub struct PageCache {
+    shared: Arc<Shared>,
+    arrivals: Receiver<Arrival>,
+    reader: Option<std::thread::JoinHandle<()>>,
+    slots: Vec<Slot>,
+    clock: u64,
+    stats: CacheStats,
+}
+
+impl PageCache {
+    /// A cache of `source`'s pages within `budget` bytes (pinned pages may hold more), with its
+    /// reader thread started.
+    pub fn new(source: Arc<dyn PageSource>, budget: u64) -> PageCache {
+        let shared = Arc::new(Shared {
+            queue: Mutex::new(Queue::default()),
+            wake: Condvar::new(),
+        });
+        let (send, arrivals) = channel();
+        let reader = {
+            let shared = shared.clone();
+            let source = source.clone();
+            std::thread::Builder::new()
+                .name("vunify-pages".into())
+                .spawn(move || read_pages(&shared, source.as_ref(), &send))
+                .expect("a thread starts")
+        };
+        PageCache {
+            shared,
+            arrivals,
+            reader: Some(reader),
+            slots: (0..source.pages()).map(|_| Slot::Absent).collect(),
+            clock: 0,
+            stats: CacheStats {
+                budget,
+                ..Default::default()
+            },
+        }
+    }
+
+    /// Asks for `page` with `priority` (higher first): a page not resident is queued, or its place
+    /// in the queue moves; a resident one counts as used now. Never waits.
+    pub fn request(&mut self, page: u32, priority: f32) {
+        self.clock += 1;
+        let Some(slot) = self.slots.get_mut(page as usize) else {
+            return;
+        };
+        match slot {
+            Slot::Resident { used, .. } => *used = self.clock,
+            Slot::Failed => {}
+            Slot::Absent => {
+                *slot = Slot::Pending;
+                self.stats.pending += 1;
+                let mut q = self.lock();
+                q.wanted.insert(page, priority.to_bits());
+                q.heap.push((Priority(priority), page));
+                drop(q);
+                self.shared.wake.notify_one();
+            }
+            Slot::Pending => {
+                // Moved in the queue while it waits; once the reader has it, nothing to do.
+                let mut q = self.lock();
+                if let Some(bits) = q.wanted.get_mut(&page)
+                    && *bits != priority.to_bits()
+                {
+                    *bits = priority.to_bits();
+                    q.heap.push((Priority(priority), page));
+                }
+            }
+        }
+    }
+
+    /// Takes the pages that have arrived (never waiting), lets the least recently used unpinned
+    /// ones go while the cache is over its budget (not those that just arrived), and returns the
+    /// errors of pages that could not be read (each once).
+    pub fn receive(&mut self) -> Vec<(u32, FormatError)> {
+        let before = self.clock;
+        let mut failures = Vec::new();
+        while let Ok((page, result)) = self.arrivals.try_recv() {
+            self.arrive(page, result, &mut failures);
+        }
+        self.evict(before);
+        failures
+    }
+
+    /// Like [`PageCache::receive`], first waiting for one arrival while any page is pending (for
+    /// tools and tests that read a tree through the cache, not for a frame).
+    pub fn receive_waiting(&mut self) -> Vec<(u32, FormatError)> {
+        let before = self.clock;
+        let mut failures = Vec::new();
+        if self.stats.pending > 0
+            && let Ok((page, result)) = self.arrivals.recv()
+        {
+            self.arrive(page, result, &mut failures);
+        }
+        while let Ok((page, result)) = self.arrivals.try_recv() {
+            self.arrive(page, result, &mut failures);
+        }
+        self.evict(before);
+        failures
+    }
+
+    fn arrive(
+        &mut self,
+        page: u32,
+        result: Result<DecodedPage, FormatError>,
+        failures: &mut Vec<(u32, FormatError)>,
+    ) {
+        self.clock += 1;
+        let slot = &mut self.slots[page as usize];
+        if matches!(slot, Slot::Pending) {
+            self.stats.pending -= 1;
+        }
+        *slot = match result {
+            Ok(p) => {
+                let bytes = p.bytes();
+                self.stats.loaded += 1;
+                self.stats.resident_bytes += bytes;
+                self.stats.resident_pages += 1;
+                Slot::Resident {
+                    page: Arc::new(p),
+                    bytes,
+                    used: self.clock,
+                    pins: 0,
+                }
+            }
+            Err(e) => {
+                self.stats.failed += 1;
+                failures.push((page, e));
+                Slot::Failed
+            }
+        };
+    }
+
+    /// Lets the least recently used unpinned pages go until the cache is within its budget, never
+    /// one used after `clock` (a page that has just arrived stays until the front could pin it).
+    fn evict(&mut self, clock: u64) {
+        if self.stats.resident_bytes <= self.stats.budget {
+            return;
+        }
+        let mut idle: Vec<(u64, usize)> = self
+            .slots
+            .iter()
+            .enumerate()
+            .filter_map(|(p, s)| match s {
+                Slot::Resident { used, pins: 0, .. } if *used <= clock => Some((*used, p)),
+                _ => None,
+            })
+            .collect();
+        idle.sort_unstable();
+        for (_, p) in idle {
+            if self.stats.resident_bytes <= self.stats.budget {
+                break;
+            }
+            if let Slot::Resident { bytes, .. } = std::mem::replace(&mut self.slots[p], Slot::Absent)
+            {
+                self.stats.resident_bytes -= bytes;
+                self.stats.resident_pages -= 1;
+                self.stats.evicted += 1;
+            }
+        }
+    }
+
+    /// Page `page` when it is resident (counted as used now).
+    pub fn get(&mut self, page: u32) -> Option<Arc<DecodedPage>> {
+        self.clock += 1;
+        match self.slots.get_mut(page as usize)? {
+            Slot::Resident { page, used, .. } => {
+                *used = self.clock;
+                Some(page.clone())
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether `page` is resident.
+    pub fn is_resident(&self, page: u32) -> bool {
+        matches!(self.slots.get(page as usize), Some(Slot::Resident { .. }))
+    }
+
+    /// Keeps `page` resident until as many [`PageCache::unpin`]s; false when it is not resident.
+    pub fn pin(&mut self, page: u32) -> bool {
+        match self.slots.get_mut(page as usize) {
+            Some(Slot::Resident { pins, .. }) => {
+                *pins += 1;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    pub fn unpin(&mut self, page: u32) {
+        if let Some(Slot::Resident { pins, .. }) = self.slots.get_mut(page as usize) {
+            *pins = pins.saturating_sub(1);
+        }
+    }
+
+    pub fn stats(&self) -> CacheStats {
+        self.stats
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Queue> {
+        self.shared
+            .queue
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+}
+
+impl Drop for PageCache {
+    fn drop(&mut self) {
+        self.lock().stop = true;
+        self.shared.wake.notify_all();
+        if let Some(reader) = self.reader.take() {
+            let _ = reader.join();
+        }
+    }
+}
+
+/// The reader thread: the most wanted page first, until the cache is dropped.
+fn read_pages(shared: &Shared, source: &dyn PageSource, send: &Sender<Arrival>) {
+    loop {
+        let page = {
+            let mut q = shared
+                .queue
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
+            loop {
+                if q.stop {
+                    return;
+                }
+                match q.heap.pop() {
+                    // Current unless the page was asked for again with another priority since.
+                    Some((Priority(p), page)) if q.wanted.get(&page) == Some(&p.to_bits()) => {
+                        q.wanted.remove(&page);
+                        break page;
+                    }
+                    Some(_) => {}
+                    None => {
+                        q = shared
+                            .wake
+                            .wait(q)
+                            .unwrap_or_else(|poisoned| poisoned.into_inner());
+                    }
+                }
+            }
+        };
+        if send.send((page, source.fetch(page as usize))).is_err() {
+            return;
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! A paged file opened for streaming: the header, the section table, `META` and the page
+//! directory are read and checked, and nothing of `PDAT` until a page is asked for. `PDAT`'s own
+//! checksum covers every page and cannot be checked without reading them all, so each page is
+//! checked alone, against its own checksum in the directory, when it is read.
+
+use super::read::{DecodedPage, PageContext, decode_page, directory};
+use super::PageEntry;
+use crate::vtree::format::{
+    FLAG_NODE_COLORS, Fail, FormatError, FormatErrorKind, HEAD_BYTES, META_LEN, check_body, table,
+};
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+
+/// A paged `.vtree` (format version 4) with its directory in memory and its pages on disk.
+pub struct PagedFile {
+    path: PathBuf,
+    file: Mutex<std::fs::File>,
+    pub leaf_count: u32,
+    pub node_count: u32,
+    /// The file's coordinate scale and largest position error (see [`super::directory`]).
+    pub scale: f32,
+    pub position_error: f32,
+    /// Whether the pages store node colours.
+    pub colors: bool,
+    pub entries: Vec<PageEntry>,
+    /// Where `PDAT` begins in the file.
+    data_at: u64,
+}
+
+impl PagedFile {
+    /// Opens `path`, reading only what every page shares: an exact (older) file, which keeps its
+    /// nodes whole, is refused with the advice to rebuild it.
+    pub fn open(path: &Path) -> Result<PagedFile, FormatError> {
+        let fail = Fail { path };
+        let io = |e: std::io::Error, what: &str| {
+            fail.at(None, FormatErrorKind::Io, format!("cannot read {what}: {e}"))
+        };
+        let mut file = std::fs::File::open(path).map_err(|e| io(e, "the file"))?;
+        let len = file.metadata().map_err(|e| io(e, "the file"))?.len();
+        let mut head = vec![0u8; HEAD_BYTES.min(len as usize)];
+        file.read_exact(&mut head).map_err(|e| io(e, "the header"))?;
+        let (version, sections) = table(&head, len, &fail)?;
+        if version < 4 {
+            return Err(fail.invalid(format!(
+                "format version {version} keeps its nodes whole, not in pages: rebuild it with \
+                 `vunify build` to stream it"
+            )));
+        }
+        let find = |tag: &[u8; 4]| {
+            sections
+                .iter()
+                .find(|(t, ..)| t == tag)
+                .copied()
+                .ok_or_else(|| {
+                    fail.invalid(format!(
+                        "section {} is missing",
+                        String::from_utf8_lossy(tag)
+                    ))
+                })
+        };
+        let mut body = |tag: &[u8; 4]| -> Result<Vec<u8>, FormatError> {
+            let (tag, offset, length, sum) = find(tag)?;
+            let mut bytes = vec![0u8; length as usize];
+            file.seek(SeekFrom::Start(offset))
+                .and_then(|_| file.read_exact(&mut bytes))
+                .map_err(|e| io(e, "a section"))?;
+            check_body(&tag, offset, &bytes, sum, &fail)?;
+            Ok(bytes)
+        };
+        let meta = body(b"META")?;
+        let dir = body(b"PAGE")?;
+        let (_, data_at, data_len, _) = find(b"PDAT")?;
+        if meta.len() != META_LEN {
+            return Err(fail.invalid(format!(
+                "META is {} bytes, expected {META_LEN}",
+                meta.len()
+            )));
+        }
+        let u32_at = |i: usize| u32::from_le_bytes(meta[i..i + 4].try_into().expect("4 bytes"));
+        let (leaf_count, node_count, flags) = (u32_at(0), u32_at(4), u32_at(16));
+        if leaf_count == 0 || node_count != 2 * leaf_count - 1 {
+            return Err(fail.invalid(format!(
+                "META says {node_count} nodes for {leaf_count} leaves"
+            )));
+        }
+        let (scale, position_error, entries) = directory(&dir, data_len, |m| fail.invalid(m))?;
+        let total: u64 = entries.iter().map(|e| e.nodes as u64).sum();
+        if total != node_count as u64 {
+            return Err(fail.invalid(format!(
+                "the pages hold {total} nodes, META says {node_count}"
+            )));
+        }
+        Ok(PagedFile {
+            path: path.to_path_buf(),
+            file: Mutex::new(file),
+            leaf_count,
+            node_count,
+            scale,
+            position_error,
+            colors: flags & FLAG_NODE_COLORS != 0,
+            entries,
+            data_at,
+        })
+    }
+
+    /// Reads and decodes page `page`, checked alone (its checksum, every id and reference in
+    /// range, every number finite).
+    pub fn read_page(&self, page: usize) -> Result<DecodedPage, FormatError> {
+        let fail = Fail { path: &self.path };
+        let entry = self.entries.get(page).ok_or_else(|| {
+            fail.invalid(format!(
+                "page {page} asked for; the file has {}",
+                self.entries.len()
+            ))
+        })?;
+        let at = self.data_at + entry.offset;
+        let mut bytes = vec![0u8; entry.length as usize];
+        {
+            let mut file = self.file.lock().unwrap_or_else(|e| e.into_inner());
+            file.seek(SeekFrom::Start(at))
+                .and_then(|_| file.read_exact(&mut bytes))
+                .map_err(|e| {
+                    fail.at(
+                        Some(at),
+                        FormatErrorKind::Io,
+                        format!("cannot read page {page}: {e}"),
+                    )
+                })?;
+        }
+        let cx = PageContext {
+            path: &self.path,
+            leaf_count: self.leaf_count,
+            node_count: self.node_count,
+            scale: self.scale,
+            colors: self.colors,
+        };
+        decode_page(&cx, page, entry, &bytes, at)
+    }
+}
