@@ -112,7 +112,10 @@ fn truncated_and_exact_files_are_refused() {
     let exact = dir.path().join("exact.vtree");
     vtree::write_with(&tree, &exact, vtree::Encoding::Exact).unwrap();
     let e = PagedFile::open(&exact).err().expect("exact");
-    assert!(e.to_string().contains("rebuild it with `vunify build`"), "{e}");
+    assert!(
+        e.to_string().contains("rebuild it with `vunify build`"),
+        "{e}"
+    );
 }
 
 /// A page source held shut until the test opens it, recording the order pages are fetched in.
@@ -196,7 +199,7 @@ fn eviction_keeps_the_budget_and_the_pinned() {
     let pages = file.entries.len() as u32;
     let budget = size(0) + size(1);
     let mut cache = PageCache::new(file.clone(), budget);
-    let mut fetch = |cache: &mut PageCache, p: u32| {
+    let fetch = |cache: &mut PageCache, p: u32| {
         cache.request(p, 1.0);
         while cache.stats().pending > 0 {
             cache.receive_waiting();

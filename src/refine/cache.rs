@@ -246,7 +246,8 @@ impl PageCache {
             if self.stats.resident_bytes <= self.stats.budget {
                 break;
             }
-            if let Slot::Resident { bytes, .. } = std::mem::replace(&mut self.slots[p], Slot::Absent)
+            if let Slot::Resident { bytes, .. } =
+                std::mem::replace(&mut self.slots[p], Slot::Absent)
             {
                 self.stats.resident_bytes -= bytes;
                 self.stats.resident_pages -= 1;

@@ -653,7 +653,12 @@ pub(super) struct Fail<'a> {
 }
 
 impl Fail<'_> {
-    pub(super) fn at(&self, offset: Option<u64>, kind: FormatErrorKind, message: String) -> FormatError {
+    pub(super) fn at(
+        &self,
+        offset: Option<u64>,
+        kind: FormatErrorKind,
+        message: String,
+    ) -> FormatError {
         FormatError {
             path: self.path.to_path_buf(),
             offset,

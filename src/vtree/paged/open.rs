@@ -3,15 +3,14 @@
 //! checksum covers every page and cannot be checked without reading them all, so each page is
 //! checked alone, against its own checksum in the directory, when it is read.
 
-use super::read::{DecodedPage, PageContext, decode_page, directory};
 use super::PageEntry;
+use super::read::{DecodedPage, PageContext, decode_page, directory};
 use crate::vtree::format::{
     FLAG_NODE_COLORS, Fail, FormatError, FormatErrorKind, HEAD_BYTES, META_LEN, check_body, table,
 };
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-
 
 /// A paged `.vtree` (format version 4) with its directory in memory and its pages on disk.
 pub struct PagedFile {
@@ -35,12 +34,17 @@ impl PagedFile {
     pub fn open(path: &Path) -> Result<PagedFile, FormatError> {
         let fail = Fail { path };
         let io = |e: std::io::Error, what: &str| {
-            fail.at(None, FormatErrorKind::Io, format!("cannot read {what}: {e}"))
+            fail.at(
+                None,
+                FormatErrorKind::Io,
+                format!("cannot read {what}: {e}"),
+            )
         };
         let mut file = std::fs::File::open(path).map_err(|e| io(e, "the file"))?;
         let len = file.metadata().map_err(|e| io(e, "the file"))?.len();
         let mut head = vec![0u8; HEAD_BYTES.min(len as usize)];
-        file.read_exact(&mut head).map_err(|e| io(e, "the header"))?;
+        file.read_exact(&mut head)
+            .map_err(|e| io(e, "the header"))?;
         let (version, sections) = table(&head, len, &fail)?;
         if version < 4 {
             return Err(fail.invalid(format!(
@@ -73,10 +77,7 @@ impl PagedFile {
         let dir = body(b"PAGE")?;
         let (_, data_at, data_len, _) = find(b"PDAT")?;
         if meta.len() != META_LEN {
-            return Err(fail.invalid(format!(
-                "META is {} bytes, expected {META_LEN}",
-                meta.len()
-            )));
+            return Err(fail.invalid(format!("META is {} bytes, expected {META_LEN}", meta.len())));
         }
         let u32_at = |i: usize| u32::from_le_bytes(meta[i..i + 4].try_into().expect("4 bytes"));
         let (leaf_count, node_count, flags) = (u32_at(0), u32_at(4), u32_at(16));
