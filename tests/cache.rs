@@ -48,6 +48,15 @@ fn pages_read_alone_are_the_whole_tree() {
     assert_eq!(seen.len(), tree.nodes.len());
 }
 
+/// The leaves' box read page by page is the whole reader's, bit for bit.
+#[test]
+fn the_leaf_box_read_page_by_page_is_the_whole_trees() {
+    let dir = temp();
+    let (tree, path) = paged_tree(dir.path());
+    let file = PagedFile::open(&path).unwrap();
+    assert_eq!(file.leaf_box().unwrap(), tree.leaf_box());
+}
+
 /// One changed byte inside a page: the file still opens (its pages are not read), that page
 /// fails with its number and where it lies, and the others read.
 #[test]

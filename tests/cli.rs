@@ -320,6 +320,53 @@ fn help_explains_every_option() {
 
 /// `vunify path` writes a path that `vunify render` reads; a broken path file is an error naming the
 /// file, line and column; with no Vulkan adapter `render` says how to install lavapipe.
+/// `vunify path` reads a paged tree page by page (never the whole tree) and makes the same path as
+/// from the same positions read whole: the paged tree written back exactly, which it reads whole.
+#[test]
+fn path_of_a_paged_tree_is_read_page_by_page() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let paged = tmp("path-paged.vtree");
+    ok(&vunify(&["build", model, "-o", paged.to_str().unwrap()]));
+    let exact = tmp("path-exact.vtree");
+    let tree = vunify::vtree::read(&paged).unwrap();
+    vunify::vtree::write_with(&tree, &exact, vunify::vtree::Encoding::Exact).unwrap();
+    let path_of = |tree: &std::path::Path, name: &str| {
+        let out = tmp(name);
+        ok(&vunify(&[
+            "path",
+            "--kind",
+            "fly-in",
+            tree.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]));
+        std::fs::read(out).unwrap()
+    };
+    assert_eq!(
+        path_of(&paged, "path-paged.json"),
+        path_of(&exact, "path-exact.json")
+    );
+    // A page corrupted: the path says which page, and writes nothing.
+    let mut bytes = std::fs::read(&paged).unwrap();
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x40;
+    std::fs::write(&paged, &bytes).unwrap();
+    let out_path = tmp("path-corrupt.json");
+    let out = vunify(&[
+        "path",
+        paged.to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("path-paged.vtree") && err.contains("page"),
+        "{err}"
+    );
+    assert!(!out_path.exists());
+}
+
 #[test]
 fn path_and_render_commands() {
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");

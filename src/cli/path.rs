@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::PathBuf;
 use vunify::camera_path::CameraPath;
-use vunify::vtree::VertexTree;
+use vunify::vtree;
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum PathKind {
@@ -36,10 +36,13 @@ pub fn run(args: PathArgs) -> Result<()> {
             args.seconds
         );
     }
-    let tree = super::load_tree(&args.model)?;
-    tree.check_viewable()
+    let leaf_box = match paged_leaf_box(&args.model)? {
+        Some(b) => b,
+        None => super::load_tree(&args.model)?.leaf_box(),
+    };
+    vtree::check_viewable_diagonal(vunify::mesh::diagonal_of(leaf_box.1 - leaf_box.0))
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
-    let path = camera_path(args.kind, &tree, args.seconds);
+    let path = camera_path(args.kind, vtree::sphere_of_box(leaf_box), args.seconds);
     vunify::export::write_atomic(&args.output, path.to_json().as_bytes())
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     println!(
@@ -51,9 +54,28 @@ pub fn run(args: PathArgs) -> Result<()> {
     Ok(())
 }
 
-/// A generated path of this kind around the tree's leaves.
-pub fn camera_path(kind: PathKind, tree: &VertexTree, seconds: f32) -> CameraPath {
-    let (center, radius) = tree.bounding_sphere();
+/// The box of a paged tree's leaves, read page by page (a 100 M-triangle tree's 2.8 GB are never
+/// in memory at once, nor its hierarchy built); `None` for a mesh or an exact tree, which are
+/// read whole.
+fn paged_leaf_box(model: &std::path::Path) -> Result<Option<(glam::Vec3, glam::Vec3)>> {
+    if model.extension().and_then(|e| e.to_str()) != Some("vtree") {
+        return Ok(None);
+    }
+    match vtree::PagedFile::open(model) {
+        Ok(file) => Ok(Some(file.leaf_box()?)),
+        Err(e) if matches!(e.kind, vtree::FormatErrorKind::WrongVersion { found } if found < 4) => {
+            Ok(None)
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// A generated path of this kind around a model's bounding sphere.
+pub fn camera_path(
+    kind: PathKind,
+    (center, radius): (glam::Vec3, f32),
+    seconds: f32,
+) -> CameraPath {
     match kind {
         PathKind::Orbit => CameraPath::orbit(center, radius, seconds),
         PathKind::FlyIn => CameraPath::fly_in(center, radius, seconds),

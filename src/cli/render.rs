@@ -112,7 +112,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
     let path = match &args.path {
         Some(p) => vunify::camera_path::CameraPath::load(p)?,
-        None => super::path::camera_path(super::path::PathKind::Orbit, &tree, 10.0),
+        None => {
+            super::path::camera_path(super::path::PathKind::Orbit, tree.bounding_sphere(), 10.0)
+        }
     };
     let gpu = Gpu::headless()?;
     // The runtime reads the hierarchy only: the tree (1.4 GB at 14 M triangles) goes as it is

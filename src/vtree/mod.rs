@@ -273,48 +273,54 @@ impl VertexTree {
 
     /// Bounding-box diagonal of the leaves.
     pub fn diagonal(&self) -> f32 {
-        let leaves = &self.nodes[..self.leaf_count as usize];
-        let lo = leaves
-            .iter()
-            .fold(Vec3::splat(f32::INFINITY), |a, n| a.min(n.position()));
-        let hi = leaves
-            .iter()
-            .fold(Vec3::splat(f32::NEG_INFINITY), |a, n| a.max(n.position()));
-        if leaves.is_empty() {
+        if self.leaf_count == 0 {
             0.0
         } else {
+            let (lo, hi) = self.leaf_box();
             crate::mesh::diagonal_of(hi - lo)
         }
+    }
+
+    /// The box of the leaves' positions (empty, lower corner at +∞, without leaves).
+    pub fn leaf_box(&self) -> (Vec3, Vec3) {
+        self.nodes[..self.leaf_count as usize]
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), n| {
+                (lo.min(n.position()), hi.max(n.position()))
+            })
+    }
+}
+
+/// Centre and radius of a box (a radius of at least the smallest positive float, so that a
+/// camera can always stand back from it).
+pub fn sphere_of_box((lo, hi): (Vec3, Vec3)) -> (Vec3, f32) {
+    (
+        lo * 0.5 + hi * 0.5,
+        (crate::mesh::diagonal_of(hi - lo) * 0.5).max(f32::MIN_POSITIVE),
+    )
+}
+
+/// Whether the renderer and camera paths can work with a model of this diagonal: between
+/// [`VIEWABLE_SCALE`]'s bounds. Outside them, a camera's projection underflows or overflows in
+/// `f32` (a model 1e-30 across renders blank); the builder itself works at any scale.
+pub fn check_viewable_diagonal(diagonal: f32) -> Result<(), ScaleError> {
+    if (VIEWABLE_SCALE.0..=VIEWABLE_SCALE.1).contains(&diagonal) {
+        Ok(())
+    } else {
+        Err(ScaleError { diagonal })
     }
 }
 
 impl VertexTree {
-    /// Centre and radius of the box around the leaves (a radius of at least the smallest positive
-    /// float, so that a camera can always stand back from it).
+    /// Centre and radius of the box around the leaves (see [`sphere_of_box`]).
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
-        let leaves = &self.nodes[..self.leaf_count as usize];
-        let lo = leaves
-            .iter()
-            .fold(Vec3::INFINITY, |a, n| a.min(n.position()));
-        let hi = leaves
-            .iter()
-            .fold(Vec3::NEG_INFINITY, |a, n| a.max(n.position()));
-        (
-            lo * 0.5 + hi * 0.5,
-            (crate::mesh::diagonal_of(hi - lo) * 0.5).max(f32::MIN_POSITIVE),
-        )
+        sphere_of_box(self.leaf_box())
     }
 
-    /// Whether the renderer and camera paths can work with this tree: its diagonal between
-    /// [`VIEWABLE_SCALE`]'s bounds. Outside them, a camera's projection underflows or overflows in
-    /// `f32` (a model 1e-30 across renders blank); the builder itself works at any scale.
+    /// Whether the renderer and camera paths can work with this tree (see
+    /// [`check_viewable_diagonal`]).
     pub fn check_viewable(&self) -> Result<(), ScaleError> {
-        let diagonal = self.diagonal();
-        if (VIEWABLE_SCALE.0..=VIEWABLE_SCALE.1).contains(&diagonal) {
-            Ok(())
-        } else {
-            Err(ScaleError { diagonal })
-        }
+        check_viewable_diagonal(self.diagonal())
     }
 
     /// Multiplies every length in the tree by `factor` (positions, spheres, errors), exactly when it is

@@ -8,6 +8,8 @@ use super::read::{DecodedPage, PageContext, decode_page, directory};
 use crate::vtree::format::{
     FLAG_NODE_COLORS, Fail, FormatError, FormatErrorKind, HEAD_BYTES, META_LEN, check_body, table,
 };
+use glam::Vec3;
+use rayon::prelude::*;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -47,10 +49,14 @@ impl PagedFile {
             .map_err(|e| io(e, "the header"))?;
         let (version, sections) = table(&head, len, &fail)?;
         if version < 4 {
-            return Err(fail.invalid(format!(
-                "format version {version} keeps its nodes whole, not in pages: rebuild it with \
-                 `vunify build` to stream it"
-            )));
+            return Err(fail.at(
+                Some(8),
+                FormatErrorKind::WrongVersion { found: version },
+                format!(
+                    "format version {version} keeps its nodes whole, not in pages: rebuild it \
+                     with `vunify build` to stream it"
+                ),
+            ));
         }
         let find = |tag: &[u8; 4]| {
             sections
@@ -138,5 +144,26 @@ impl PagedFile {
             colors: self.colors,
         };
         decode_page(&cx, page, entry, &bytes, at)
+    }
+
+    /// The box of the leaves' positions, as the whole file's reader decodes them
+    /// ([`crate::vtree::VertexTree::leaf_box`]), from every page read in turn on every core: a
+    /// few pages in memory at a time, however large the tree.
+    pub fn leaf_box(&self) -> Result<(Vec3, Vec3), FormatError> {
+        let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        (0..self.entries.len())
+            .into_par_iter()
+            .map(|p| {
+                let page = self.read_page(p)?;
+                Ok(page
+                    .ids
+                    .iter()
+                    .zip(&page.nodes)
+                    .filter(|&(&id, _)| id < self.leaf_count)
+                    .fold(empty, |(lo, hi), (_, n)| {
+                        (lo.min(n.position()), hi.max(n.position()))
+                    }))
+            })
+            .try_reduce(|| empty, |a, b| Ok((a.0.min(b.0), a.1.max(b.1))))
     }
 }
