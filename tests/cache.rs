@@ -48,13 +48,24 @@ fn pages_read_alone_are_the_whole_tree() {
     assert_eq!(seen.len(), tree.nodes.len());
 }
 
-/// The leaves' box read page by page is the whole reader's, bit for bit.
+/// The leaves' box, the depth and the root, read page by page, are the whole reader's, bit for
+/// bit; so are the counts, flags and parts read on opening.
 #[test]
-fn the_leaf_box_read_page_by_page_is_the_whole_trees() {
+fn a_survey_page_by_page_is_the_whole_trees() {
     let dir = temp();
     let (tree, path) = paged_tree(dir.path());
     let file = PagedFile::open(&path).unwrap();
-    assert_eq!(file.leaf_box().unwrap(), tree.leaf_box());
+    let survey = file.survey().unwrap();
+    assert_eq!(survey.leaf_box, tree.leaf_box());
+    assert_eq!(survey.depth, tree.depth());
+    assert_eq!(survey.root, Some(tree.nodes[tree.root() as usize]));
+    assert_eq!(file.triangles as usize, tree.triangles.len());
+    assert_eq!(file.metric, tree.metric);
+    assert_eq!(
+        (file.has_colors, file.has_normals, &file.parts),
+        (tree.has_colors, tree.has_normals, &tree.parts)
+    );
+    assert!(!file.appearance);
 }
 
 /// One changed byte inside a page: the file still opens (its pages are not read), that page

@@ -320,6 +320,35 @@ fn help_explains_every_option() {
 
 /// `vunify path` writes a path that `vunify render` reads; a broken path file is an error naming the
 /// file, line and column; with no Vulkan adapter `render` says how to install lavapipe.
+/// `vunify info` on a paged tree reads its pages one at a time (never the whole tree) and says
+/// what reading it whole says (`--check` reads it whole): the same JSON but for `checked`, the
+/// same text but for the check's line.
+#[test]
+fn info_of_a_paged_tree_is_read_page_by_page() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cessna.obj");
+    let paged = tmp("info-paged.vtree");
+    ok(&vunify(&["build", model, "-o", paged.to_str().unwrap()]));
+    let info = |extra: &[&str]| {
+        let mut args = vec!["info", paged.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        ok(&vunify(&args))
+    };
+    let json = |extra: &[&str]| {
+        let mut j: serde_json::Value = serde_json::from_str(&info(extra)).unwrap();
+        j.as_object_mut().unwrap().remove("checked");
+        j
+    };
+    assert_eq!(json(&["--json"]), json(&["--json", "--check"]));
+    let whole: Vec<String> = info(&["--check"])
+        .lines()
+        .filter(|l| !l.starts_with("check"))
+        .map(String::from)
+        .collect();
+    let pages: Vec<String> = info(&[]).lines().map(String::from).collect();
+    assert_eq!(pages, whole);
+    assert!(pages.iter().any(|l| l.contains("depth")), "{pages:?}");
+}
+
 /// `vunify path` reads a paged tree page by page (never the whole tree) and makes the same path as
 /// from the same positions read whole: the paged tree written back exactly, which it reads whole.
 #[test]

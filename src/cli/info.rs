@@ -17,28 +17,104 @@ pub struct InfoArgs {
     json: bool,
 }
 
+/// What `info` says of a tree: from the whole tree, or (`tree` none) from a paged tree without
+/// appearance read a page at a time.
+struct Facts {
+    leaves: u32,
+    nodes: u32,
+    triangles: u32,
+    depth: u32,
+    metric: vunify::simplify::Metric,
+    colors: bool,
+    normals: bool,
+    parts: Vec<vtree::PartInfo>,
+    root_error: f32,
+    diagonal: f32,
+    position_error: f32,
+    tree: Option<vtree::VertexTree>,
+}
+
+impl Facts {
+    fn of_tree(tree: vtree::VertexTree) -> Facts {
+        Facts {
+            leaves: tree.leaf_count,
+            nodes: tree.nodes.len() as u32,
+            triangles: tree.triangles.len() as u32,
+            depth: tree.depth(),
+            metric: tree.metric,
+            colors: tree.has_colors,
+            normals: tree.has_normals,
+            parts: tree.parts.clone(),
+            root_error: tree.nodes[tree.root() as usize].error,
+            diagonal: tree.diagonal(),
+            position_error: tree.position_error,
+            tree: Some(tree),
+        }
+    }
+
+    /// A paged tree without appearance, its pages read in turn (a few in memory at a time: a
+    /// 100 M-triangle tree answers without being read whole); `None` for any other file.
+    fn of_pages(file: &std::path::Path) -> Result<Option<Facts>> {
+        let pages = match vtree::PagedFile::open(file) {
+            Ok(pages) if !pages.appearance => pages,
+            Ok(_) => return Ok(None),
+            Err(e) if matches!(e.kind, vtree::FormatErrorKind::WrongVersion { .. }) => {
+                return Ok(None);
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let survey = pages.survey()?;
+        let (lo, hi) = survey.leaf_box;
+        Ok(Some(Facts {
+            leaves: pages.leaf_count,
+            nodes: pages.node_count,
+            triangles: pages.triangles,
+            depth: survey.depth,
+            metric: pages.metric,
+            colors: pages.has_colors,
+            normals: pages.has_normals,
+            root_error: survey.root.map_or(0.0, |r| r.error),
+            diagonal: vunify::mesh::diagonal_of(hi - lo),
+            position_error: pages.position_error,
+            parts: pages.parts,
+            tree: None,
+        }))
+    }
+}
+
 pub fn run(args: InfoArgs) -> Result<()> {
     let InfoArgs { file, check, json } = args;
-    let tree = vtree::read(&file)?;
-    if check {
-        vtree::check_cut(&tree).map_err(|e| {
-            anyhow::anyhow!("{}: the build order is inconsistent: {e}", file.display())
-        })?;
-    }
-    let root = &tree.nodes[tree.root() as usize];
+    let facts = match (check, Facts::of_pages(&file)?) {
+        (false, Some(facts)) => facts,
+        _ => {
+            let tree = vtree::read(&file)?;
+            if check {
+                vtree::check_cut(&tree).map_err(|e| {
+                    anyhow::anyhow!("{}: the build order is inconsistent: {e}", file.display())
+                })?;
+            }
+            Facts::of_tree(tree)
+        }
+    };
+    let tree = facts.tree.as_ref();
     let file_bytes = std::fs::metadata(&file).map_or(0, |m| m.len());
-    let textures = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
-    let materials: Vec<&vunify::mesh::Material> =
-        tree.materials.iter().flat_map(|m| &m.list).collect();
+    let textures = tree
+        .and_then(|t| t.appearance.as_ref())
+        .map_or(0, |a| a.textures.len());
+    let materials: Vec<&vunify::mesh::Material> = tree
+        .iter()
+        .flat_map(|t| t.materials.iter().flat_map(|m| &m.list))
+        .collect();
+    let wedges = tree.and_then(|t| t.wedges.as_ref());
     if json {
         let j = serde_json::json!({
-            "file": file, "leaves": tree.leaf_count, "nodes": tree.nodes.len(), "triangles": tree.triangles.len(),
-            "depth": tree.depth(), "metric": tree.metric.name(), "colors": tree.has_colors, "normals": tree.has_normals,
-            "parts": tree.parts, "textured": tree.appearance.is_some(), "images": textures,
-            "materials": materials, "wedges": tree.wedges.as_ref().map(|w| w.len()),
-            "leaf_wedges": tree.wedges.as_ref().map(|w| w.node.iter().filter(|&&u| u < tree.leaf_count).count()),
-            "root_error": root.error, "diagonal": tree.diagonal(), "checked": check,
-            "position_error": tree.position_error, "file_bytes": file_bytes,
+            "file": file, "leaves": facts.leaves, "nodes": facts.nodes, "triangles": facts.triangles,
+            "depth": facts.depth, "metric": facts.metric.name(), "colors": facts.colors, "normals": facts.normals,
+            "parts": facts.parts, "textured": tree.is_some_and(|t| t.appearance.is_some()), "images": textures,
+            "materials": materials, "wedges": wedges.map(|w| w.len()),
+            "leaf_wedges": wedges.map(|w| w.node.iter().filter(|&&u| u < facts.leaves).count()),
+            "root_error": facts.root_error, "diagonal": facts.diagonal, "checked": check,
+            "position_error": facts.position_error, "file_bytes": file_bytes,
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
         return Ok(());
@@ -46,36 +122,37 @@ pub fn run(args: InfoArgs) -> Result<()> {
     println!("file       {}", file.display());
     println!(
         "tree       {} nodes ({} leaves), depth {}, metric {}",
-        tree.nodes.len(),
-        tree.leaf_count,
-        tree.depth(),
-        tree.metric.name()
+        facts.nodes,
+        facts.leaves,
+        facts.depth,
+        facts.metric.name()
     );
-    println!("triangles  {}", tree.triangles.len());
-    let per_triangle = file_bytes as f64 / tree.triangles.len().max(1) as f64;
-    if tree.position_error > 0.0 {
+    println!("triangles  {}", facts.triangles);
+    let per_triangle = file_bytes as f64 / facts.triangles.max(1) as f64;
+    let diagonal = facts.diagonal;
+    if facts.position_error > 0.0 {
         println!(
             "stored     paged, {per_triangle:.1} bytes a triangle; positions within {:.3e} ({:.5} % of the diagonal), every error and bound widened by it",
-            tree.position_error,
-            100.0 * tree.position_error / tree.diagonal().max(f32::MIN_POSITIVE)
+            facts.position_error,
+            100.0 * facts.position_error / diagonal.max(f32::MIN_POSITIVE)
         );
     } else {
         println!("stored     exact, {per_triangle:.1} bytes a triangle");
     }
     println!(
         "attributes colours: {}, normals: {}",
-        tree.has_colors, tree.has_normals
+        facts.colors, facts.normals
     );
     println!(
         "root       error {:.4} ({:.4} % of the diagonal {:.4})",
-        root.error,
-        100.0 * root.error / tree.diagonal().max(f32::MIN_POSITIVE),
-        tree.diagonal()
+        facts.root_error,
+        100.0 * facts.root_error / diagonal.max(f32::MIN_POSITIVE),
+        diagonal
     );
-    if tree.appearance.is_some() {
+    if tree.is_some_and(|t| t.appearance.is_some()) {
         println!("textures   texture coordinates, {textures} images");
     }
-    if let Some(w) = &tree.wedges {
+    if let (Some(w), Some(tree)) = (wedges, tree) {
         let leaves = w.node.iter().filter(|&&u| u < tree.leaf_count).count();
         println!(
             "wedges     {} ({leaves} at the leaves: the input's vertices; {} at the {} internal nodes)",
@@ -100,12 +177,12 @@ pub fn run(args: InfoArgs) -> Result<()> {
             );
         }
     }
-    println!("parts      {}", tree.parts.len());
-    for p in tree.parts.iter().take(20) {
+    println!("parts      {}", facts.parts.len());
+    for p in facts.parts.iter().take(20) {
         println!("           {:>8} triangles  {}", p.triangles, p.name);
     }
-    if tree.parts.len() > 20 {
-        println!("           ... and {} more", tree.parts.len() - 20);
+    if facts.parts.len() > 20 {
+        println!("           ... and {} more", facts.parts.len() - 20);
     }
     if check {
         println!("check      every cut of the build order is a valid mesh");

@@ -62,7 +62,7 @@ fn paged_leaf_box(model: &std::path::Path) -> Result<Option<(glam::Vec3, glam::V
         return Ok(None);
     }
     match vtree::PagedFile::open(model) {
-        Ok(file) => Ok(Some(file.leaf_box()?)),
+        Ok(file) => Ok(Some(file.survey()?.leaf_box)),
         Err(e) if matches!(e.kind, vtree::FormatErrorKind::WrongVersion { found } if found < 4) => {
             Ok(None)
         }

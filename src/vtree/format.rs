@@ -27,8 +27,8 @@ const HEADER: usize = 16;
 const MAX_SECTIONS: u32 = 16;
 pub(super) const META_LEN: usize = 32;
 const NODE_LEN: u64 = std::mem::size_of::<Node>() as u64;
-const FLAG_COLORS: u32 = 1;
-const FLAG_NORMALS: u32 = 2;
+pub(super) const FLAG_COLORS: u32 = 1;
+pub(super) const FLAG_NORMALS: u32 = 2;
 const FLAG_ONE_SIDED: u32 = 4;
 /// Version 4: the pages store node colours (else every node is white).
 pub(super) const FLAG_NODE_COLORS: u32 = 8;
@@ -57,7 +57,7 @@ pub enum Encoding {
 /// and its wedges' tints (`TINT`: a u32 count, then each wedge's tint of its texture as three f32;
 /// only when some textured vertex of the input was tinted: a reader before it draws the textures
 /// untinted).
-const OPTIONAL: [[u8; 4]; 5] = [*b"UVTX", *b"TEXS", *b"MATL", *b"WEDG", *b"TINT"];
+pub(super) const OPTIONAL: [[u8; 4]; 5] = [*b"UVTX", *b"TEXS", *b"MATL", *b"WEDG", *b"TINT"];
 /// Bytes of one wedge in `WEDG`.
 const WEDGE_LEN: u64 = 48;
 const UVTX_LEN: u64 = 12;
@@ -820,7 +820,11 @@ const fn table_len(count: u32) -> usize {
 pub(super) const HEAD_BYTES: usize = table_len(MAX_SECTIONS);
 
 /// The PART section: `count` parts, each a triangle count, a name length and a UTF-8 name.
-fn part_list(part_bytes: &[u8], count: u32, fail: &Fail) -> Result<Vec<PartInfo>, FormatError> {
+pub(super) fn part_list(
+    part_bytes: &[u8],
+    count: u32,
+    fail: &Fail,
+) -> Result<Vec<PartInfo>, FormatError> {
     let mut parts = Vec::new();
     let mut at = 0usize;
     let p = Cursor { bytes: part_bytes };

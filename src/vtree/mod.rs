@@ -28,7 +28,7 @@ pub use format::{
     Encoding, FORMAT_VERSION, FormatError, FormatErrorKind, MAGIC, OLDEST_FORMAT_VERSION, read,
     read_bytes, read_pages, to_bytes, to_bytes_with, write, write_with,
 };
-pub use paged::{DecodedPage, PAGE_NODES, PageEntry, PagedFile};
+pub use paged::{DecodedPage, PAGE_NODES, PageEntry, PagedFile, Survey};
 
 use crate::simplify::Metric;
 use bytemuck::{Pod, Zeroable};

@@ -20,7 +20,7 @@ mod open;
 mod read;
 mod write;
 
-pub use open::PagedFile;
+pub use open::{PagedFile, Survey};
 pub use read::{DecodedPage, PageContext, decode_all, decode_page, directory};
 pub use write::{DIRECTORY_HEAD, encode};
 

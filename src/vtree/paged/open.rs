@@ -5,8 +5,11 @@
 
 use super::PageEntry;
 use super::read::{DecodedPage, PageContext, decode_page, directory};
+use crate::simplify::Metric;
+use crate::vtree::PartInfo;
 use crate::vtree::format::{
-    FLAG_NODE_COLORS, Fail, FormatError, FormatErrorKind, HEAD_BYTES, META_LEN, check_body, table,
+    FLAG_COLORS, FLAG_NODE_COLORS, FLAG_NORMALS, Fail, FormatError, FormatErrorKind, HEAD_BYTES,
+    META_LEN, OPTIONAL, check_body, part_list, table,
 };
 use glam::Vec3;
 use rayon::prelude::*;
@@ -25,6 +28,15 @@ pub struct PagedFile {
     pub position_error: f32,
     /// Whether the pages store node colours.
     pub colors: bool,
+    pub triangles: u32,
+    pub metric: Metric,
+    /// META's flags: the input had colours, normals; it is one-sided.
+    pub has_colors: bool,
+    pub has_normals: bool,
+    pub parts: Vec<PartInfo>,
+    /// Whether the file has any section of appearance (texture coordinates, textures,
+    /// materials, wedges), which this reader does not read.
+    pub appearance: bool,
     pub entries: Vec<PageEntry>,
     /// Where `PDAT` begins in the file.
     data_at: u64,
@@ -81,12 +93,18 @@ impl PagedFile {
         };
         let meta = body(b"META")?;
         let dir = body(b"PAGE")?;
+        let part_bytes = body(b"PART")?;
         let (_, data_at, data_len, _) = find(b"PDAT")?;
         if meta.len() != META_LEN {
             return Err(fail.invalid(format!("META is {} bytes, expected {META_LEN}", meta.len())));
         }
         let u32_at = |i: usize| u32::from_le_bytes(meta[i..i + 4].try_into().expect("4 bytes"));
-        let (leaf_count, node_count, flags) = (u32_at(0), u32_at(4), u32_at(16));
+        let (leaf_count, node_count, triangles, flags) =
+            (u32_at(0), u32_at(4), u32_at(8), u32_at(16));
+        let metric = Metric::from_code(u32_at(12))
+            .ok_or_else(|| fail.invalid(format!("unknown metric code {}", u32_at(12))))?;
+        let parts = part_list(&part_bytes, u32_at(20), &fail)?;
+        let appearance = sections.iter().any(|(tag, ..)| OPTIONAL.contains(tag));
         if leaf_count == 0 || node_count != 2 * leaf_count - 1 {
             return Err(fail.invalid(format!(
                 "META says {node_count} nodes for {leaf_count} leaves"
@@ -107,6 +125,12 @@ impl PagedFile {
             scale,
             position_error,
             colors: flags & FLAG_NODE_COLORS != 0,
+            triangles,
+            metric,
+            has_colors: flags & FLAG_COLORS != 0,
+            has_normals: flags & FLAG_NORMALS != 0,
+            parts,
+            appearance,
             entries,
             data_at,
         })
@@ -146,24 +170,68 @@ impl PagedFile {
         decode_page(&cx, page, entry, &bytes, at)
     }
 
-    /// The box of the leaves' positions, as the whole file's reader decodes them
-    /// ([`crate::vtree::VertexTree::leaf_box`]), from every page read in turn on every core: a
-    /// few pages in memory at a time, however large the tree.
-    pub fn leaf_box(&self) -> Result<(Vec3, Vec3), FormatError> {
-        let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        (0..self.entries.len())
-            .into_par_iter()
-            .map(|p| {
-                let page = self.read_page(p)?;
-                Ok(page
-                    .ids
-                    .iter()
-                    .zip(&page.nodes)
-                    .filter(|&(&id, _)| id < self.leaf_count)
-                    .fold(empty, |(lo, hi), (_, n)| {
-                        (lo.min(n.position()), hi.max(n.position()))
-                    }))
-            })
-            .try_reduce(|| empty, |a, b| Ok((a.0.min(b.0), a.1.max(b.1))))
+    /// What every node says of the whole tree, as the whole file's reader would (the leaves' box
+    /// as [`crate::vtree::VertexTree::leaf_box`], the depth as [`crate::vtree::VertexTree::depth`],
+    /// the root), from every page read in turn: a few pages a core in memory at a time, however
+    /// large the tree. Pages are read from the root's (the last) down, so that each page's root
+    /// knows its depth before its nodes are reached.
+    pub fn survey(&self) -> Result<Survey, FormatError> {
+        let mut survey = Survey {
+            leaf_box: (Vec3::INFINITY, Vec3::NEG_INFINITY),
+            depth: 0,
+            root: None,
+        };
+        let root = self.node_count - 1;
+        // The depth of each page's root, known once its parent's page is read.
+        let mut root_depth = std::collections::HashMap::from([(root, 0u32)]);
+        let batch = rayon::current_num_threads() * 4;
+        let order: Vec<usize> = (0..self.entries.len()).rev().collect();
+        for chunk in order.chunks(batch) {
+            let pages: Vec<DecodedPage> = chunk
+                .par_iter()
+                .map(|&p| self.read_page(p))
+                .collect::<Result<_, _>>()?;
+            for (page, &p) in pages.iter().zip(chunk) {
+                // A page's ids increase, and a parent follows its children (checked when it
+                // was decoded): from the last node back, each node's depth is known.
+                let mut depth = vec![0u32; page.ids.len()];
+                let page_root = self.entries[p].root;
+                for i in (0..page.ids.len()).rev() {
+                    let (id, node) = (page.ids[i], &page.nodes[i]);
+                    if id == page_root {
+                        depth[i] = root_depth.remove(&id).ok_or_else(|| {
+                            Fail { path: &self.path }
+                                .invalid(format!("page {p}'s root {id} has no parent page"))
+                        })?;
+                    }
+                    survey.depth = survey.depth.max(depth[i]);
+                    if id == root {
+                        survey.root = Some(*node);
+                    }
+                    if id < self.leaf_count {
+                        let (lo, hi) = survey.leaf_box;
+                        survey.leaf_box = (lo.min(node.position()), hi.max(node.position()));
+                        continue;
+                    }
+                    for c in node.children {
+                        match page.ids[..i].binary_search(&c) {
+                            Ok(k) => depth[k] = depth[i] + 1,
+                            Err(_) => {
+                                root_depth.insert(c, depth[i] + 1);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(survey)
     }
+}
+
+/// What [`PagedFile::survey`] finds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Survey {
+    pub leaf_box: (Vec3, Vec3),
+    pub depth: u32,
+    pub root: Option<crate::vtree::Node>,
 }
