@@ -372,7 +372,7 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         return Err(fail.invalid(format!("META says {nodes} nodes for {leaves} leaves")));
     }
     let (node_list, triangles, vanish_offsets, position_error) = if version >= 4 {
-        if nodes != 2 * leaves - 1 {
+        if nodes as u64 != 2 * leaves as u64 - 1 {
             return Err(fail.invalid(format!("META says {nodes} nodes for {leaves} leaves")));
         }
         let (_, dir) = need(b"PAGE")?;

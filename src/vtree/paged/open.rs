@@ -105,7 +105,7 @@ impl PagedFile {
             .ok_or_else(|| fail.invalid(format!("unknown metric code {}", u32_at(12))))?;
         let parts = part_list(&part_bytes, u32_at(20), &fail)?;
         let appearance = sections.iter().any(|(tag, ..)| OPTIONAL.contains(tag));
-        if leaf_count == 0 || node_count != 2 * leaf_count - 1 {
+        if leaf_count == 0 || node_count as u64 != 2 * leaf_count as u64 - 1 {
             return Err(fail.invalid(format!(
                 "META says {node_count} nodes for {leaf_count} leaves"
             )));
