@@ -107,6 +107,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if !(args.fps > 0.0 && args.fps <= 1000.0) {
         bail!("--fps must be positive and at most 1000, got {}", args.fps);
     }
+    super::warn_if_too_large_to_view(&args.model);
     let tree = super::load_tree(&args.model)?;
     tree.check_viewable()
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;

@@ -39,6 +39,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         Some(m) => m,
         None => super::default_job::bundled_model()?,
     };
+    super::warn_if_too_large_to_view(&model);
     if !super::has_display() {
         println!(
             "vunify: no display (DISPLAY and WAYLAND_DISPLAY are unset); rendering the default camera path \
