@@ -230,6 +230,20 @@ fn requests_never_wait_and_the_most_wanted_come_first() {
     assert_eq!(cache.stats().loaded, pages as u64);
 }
 
+/// Letting the cache go while the disk holds a page back does not wait for the disk.
+#[test]
+fn dropping_the_cache_does_not_wait_for_the_disk() {
+    let dir = temp();
+    let (_, path) = paged_tree(dir.path());
+    let source = gated(&path);
+    let mut cache = PageCache::new(source.clone(), u64::MAX);
+    cache.request(0, 1.0);
+    cache.request(1, 1.0);
+    drop(cache);
+    // Reached only because the drop returned; the reader ends once its read does.
+    source.open();
+}
+
 /// Under a budget of two pages' bytes: the least recently used unpinned pages go as others
 /// arrive, a pinned page never does, nor one that has just arrived, and nothing else stays
 /// beyond the budget.

@@ -303,12 +303,13 @@ impl PageCache {
 }
 
 impl Drop for PageCache {
+    /// Tells the reader to stop, without waiting for it: a page being read from a slow disk
+    /// would hold up whoever lets the cache go (the viewer closing); the reader ends once that
+    /// read returns.
     fn drop(&mut self) {
         self.lock().stop = true;
         self.shared.wake.notify_all();
-        if let Some(reader) = self.reader.take() {
-            let _ = reader.join();
-        }
+        drop(self.reader.take());
     }
 }
 
