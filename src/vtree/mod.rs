@@ -16,6 +16,7 @@ mod extract;
 mod format;
 mod paged;
 mod section;
+mod table;
 
 pub use build::{
     BudgetTooSmall, BuildError, BuildOptions, BuildStats, CELLS_FLOOR_BYTES_PER_TRIANGLE,

@@ -8,9 +8,10 @@ use super::read::{DecodedPage, PageContext, decode_page, directory};
 use crate::simplify::Metric;
 use crate::vtree::PartInfo;
 use crate::vtree::format::{
-    FLAG_COLORS, FLAG_NODE_COLORS, FLAG_NORMALS, Fail, FormatError, FormatErrorKind, HEAD_BYTES,
-    META_LEN, OPTIONAL, check_body, part_list, table,
+    FLAG_COLORS, FLAG_NODE_COLORS, FLAG_NORMALS, FormatError, FormatErrorKind, META_LEN, OPTIONAL,
+    part_list,
 };
+use crate::vtree::table::{Fail, HEAD_BYTES, check_body, table};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::io::{Read, Seek, SeekFrom};
