@@ -84,9 +84,11 @@ impl Facts {
 
 pub fn run(args: InfoArgs) -> Result<()> {
     let InfoArgs { file, check, json } = args;
-    let facts = match (check, Facts::of_pages(&file)?) {
-        (false, Some(facts)) => facts,
-        _ => {
+    // `--check` replays the whole tree: read whole, not surveyed first as well.
+    let pages = if check { None } else { Facts::of_pages(&file)? };
+    let facts = match pages {
+        Some(facts) => facts,
+        None => {
             let tree = vtree::read(&file)?;
             if check {
                 vtree::check_cut(&tree).map_err(|e| {

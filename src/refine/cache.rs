@@ -64,26 +64,37 @@ enum Slot {
 #[derive(Default)]
 struct Queue {
     wanted: HashMap<u32, u32>,
-    heap: BinaryHeap<(Priority, u32)>,
+    heap: BinaryHeap<Request>,
     stop: bool,
 }
 
-/// An `f32` priority ordered totally (NaN lowest), ties to the lower page.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Priority(f32);
+/// A page asked for with a priority: the heap's greatest is the highest priority (NaN lowest),
+/// the lower page among equals.
+#[derive(Clone, Copy, Debug)]
+struct Request {
+    priority: f32,
+    page: u32,
+}
 
-impl Eq for Priority {}
-impl PartialOrd for Priority {
+impl Ord for Request {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        let key = |p: f32| if p.is_nan() { f32::NEG_INFINITY } else { p };
+        key(self.priority)
+            .total_cmp(&key(o.priority))
+            .then(o.page.cmp(&self.page))
+    }
+}
+impl PartialOrd for Request {
     fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
         Some(self.cmp(o))
     }
 }
-impl Ord for Priority {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        let key = |p: f32| if p.is_nan() { f32::NEG_INFINITY } else { p };
-        key(self.0).total_cmp(&key(o.0))
+impl PartialEq for Request {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o).is_eq()
     }
 }
+impl Eq for Request {}
 
 struct Shared {
     queue: Mutex<Queue>,
@@ -96,7 +107,6 @@ type Arrival = (u32, Result<DecodedPage, FormatError>);
 pub struct PageCache {
     shared: Arc<Shared>,
     arrivals: Receiver<Arrival>,
-    reader: Option<std::thread::JoinHandle<()>>,
     slots: Vec<Slot>,
     clock: u64,
     stats: CacheStats,
@@ -111,18 +121,18 @@ impl PageCache {
             wake: Condvar::new(),
         });
         let (send, arrivals) = channel();
-        let reader = {
+        {
             let shared = shared.clone();
             let source = source.clone();
+            // Never joined (see `Drop`): it ends when the cache is let go.
             std::thread::Builder::new()
                 .name("vunify-pages".into())
                 .spawn(move || read_pages(&shared, source.as_ref(), &send))
-                .expect("a thread starts")
-        };
+                .expect("a thread starts");
+        }
         PageCache {
             shared,
             arrivals,
-            reader: Some(reader),
             slots: (0..source.pages()).map(|_| Slot::Absent).collect(),
             clock: 0,
             stats: CacheStats {
@@ -147,7 +157,7 @@ impl PageCache {
                 self.stats.pending += 1;
                 let mut q = self.lock();
                 q.wanted.insert(page, priority.to_bits());
-                q.heap.push((Priority(priority), page));
+                q.heap.push(Request { priority, page });
                 drop(q);
                 self.shared.wake.notify_one();
             }
@@ -158,7 +168,7 @@ impl PageCache {
                     && *bits != priority.to_bits()
                 {
                     *bits = priority.to_bits();
-                    q.heap.push((Priority(priority), page));
+                    q.heap.push(Request { priority, page });
                 }
             }
         }
@@ -309,7 +319,6 @@ impl Drop for PageCache {
     fn drop(&mut self) {
         self.lock().stop = true;
         self.shared.wake.notify_all();
-        drop(self.reader.take());
     }
 }
 
@@ -327,7 +336,9 @@ fn read_pages(shared: &Shared, source: &dyn PageSource, send: &Sender<Arrival>) 
                 }
                 match q.heap.pop() {
                     // Current unless the page was asked for again with another priority since.
-                    Some((Priority(p), page)) if q.wanted.get(&page) == Some(&p.to_bits()) => {
+                    Some(Request { priority, page })
+                        if q.wanted.get(&page) == Some(&priority.to_bits()) =>
+                    {
                         q.wanted.remove(&page);
                         break page;
                     }
