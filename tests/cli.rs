@@ -89,7 +89,7 @@ fn build_info_extract_measure() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--bound must be"));
 }
 
-/// `vunify build` writes the paged file (version 4) unless told `--exact` (version 1 here, no
+/// `vunify build` writes the paged file (version 5) unless told `--exact` (version 1 here, no
 /// appearance): at most 32 bytes a triangle against about 98, the position error stated by
 /// `info`, and the same levels extracted from both.
 #[test]
@@ -104,7 +104,7 @@ fn build_writes_paged_files_unless_exact() {
     );
     ok(&vunify(&["build", model, "-o", e, "--exact"]));
     let version = |path: &PathBuf| std::fs::read(path).unwrap()[8];
-    assert_eq!((version(&paged), version(&exact)), (4, 1));
+    assert_eq!((version(&paged), version(&exact)), (5, 1));
     let info = |t: &str| -> serde_json::Value {
         serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap()
     };

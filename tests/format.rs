@@ -298,6 +298,41 @@ fn paged_tree() -> VertexTree {
         .0
 }
 
+/// Each node's id in a paged file: the leaves numbered depth-first (a node's first child's
+/// leaves before its second's), internal nodes as built.
+fn file_ids(tree: &VertexTree) -> Vec<u32> {
+    let mut id: Vec<u32> = (0..tree.nodes.len() as u32).collect();
+    let (mut next, mut stack) = (0, vec![tree.root()]);
+    while let Some(u) = stack.pop() {
+        if u < tree.leaf_count {
+            id[u as usize] = next;
+            next += 1;
+        } else {
+            let [a, b] = tree.nodes[u as usize].children;
+            stack.extend([b, a]);
+        }
+    }
+    id
+}
+
+/// The leaves under each node of `tree` as a range of ids, if its leaves are numbered
+/// depth-first (`None` otherwise).
+fn leaf_ranges(tree: &VertexTree) -> Option<Vec<[u32; 2]>> {
+    let mut range = vec![[0u32; 2]; tree.nodes.len()];
+    for u in 0..tree.nodes.len() as u32 {
+        range[u as usize] = if u < tree.leaf_count {
+            [u, u + 1]
+        } else {
+            let [a, b] = tree.nodes[u as usize].children.map(|c| range[c as usize]);
+            if a[1] != b[0] {
+                return None;
+            }
+            [a[0], b[1]]
+        };
+    }
+    Some(range)
+}
+
 /// The angle between two vectors, radians.
 fn angle(a: glam::Vec3, b: glam::Vec3) -> f32 {
     a.normalize().dot(b.normalize()).clamp(-1.0, 1.0).acos()
@@ -310,16 +345,27 @@ fn angle(a: glam::Vec3, b: glam::Vec3) -> f32 {
 fn paged_round_trip_keeps_links_and_widens_every_bound() {
     let tree = paged_tree();
     let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
-    assert_eq!(bytes[8..12], 4u32.to_le_bytes());
+    assert_eq!(bytes[8..12], 5u32.to_le_bytes());
     let back = vtree::read_bytes(&bytes, Path::new("p.vtree")).unwrap();
+    // The leaves depth-first, so that every node's leaves are a range; all else as built.
+    assert!(leaf_ranges(&tree).is_none());
+    assert!(leaf_ranges(&back).is_some());
+    let id = file_ids(&tree);
+    let file = |u: u32| if u == vtree::NONE { u } else { id[u as usize] };
     assert_eq!(back.leaf_count, tree.leaf_count);
-    assert_eq!(back.triangles, tree.triangles);
+    let renumbered: Vec<[u32; 3]> = tree.triangles.iter().map(|t| t.map(file)).collect();
+    assert_eq!(back.triangles, renumbered);
     assert_eq!(back.vanish_offsets, tree.vanish_offsets);
     assert_eq!(back.parts, tree.parts);
     let diagonal = tree.diagonal();
     assert!(back.position_error > 0.0 && back.position_error < 1e-4 * diagonal);
-    for (u, (a, b)) in tree.nodes.iter().zip(&back.nodes).enumerate() {
-        assert_eq!((a.children, a.parent), (b.children, b.parent), "node {u}");
+    for (u, a) in tree.nodes.iter().enumerate() {
+        let b = &back.nodes[file(u as u32) as usize];
+        assert_eq!(
+            (a.children.map(file), file(a.parent)),
+            (b.children, b.parent),
+            "node {u}"
+        );
         let moved = a.position().distance(b.position());
         assert!(moved <= back.position_error, "node {u} moved {moved}");
         assert!(
@@ -362,9 +408,9 @@ fn paged_round_trip_keeps_links_and_widens_every_bound() {
     for v in 0..tree.leaf_count {
         let (p, stored) = (
             tree.nodes[v as usize].position(),
-            back.nodes[v as usize].position(),
+            back.nodes[file(v) as usize].position(),
         );
-        let mut u = v;
+        let mut u = file(v);
         while u != vtree::NONE {
             let node = &back.nodes[u as usize];
             let d = p.distance(node.position());
@@ -408,7 +454,11 @@ fn pages_waiting_on_disk_make_the_same_file() {
 
 #[test]
 fn pages_are_connected_subtrees_of_bounded_size() {
-    let tree = paged_tree();
+    let tree = vtree::read_bytes(
+        &vtree::to_bytes_with(&paged_tree(), vtree::Encoding::Paged),
+        Path::new("p.vtree"),
+    )
+    .unwrap();
     let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
     let pages = vtree::read_pages(&bytes, Path::new("p.vtree")).unwrap();
     assert!(pages.len() >= 4, "{} pages", pages.len());
@@ -559,4 +609,109 @@ proptest! {
             prop_assert!(vtree::check(&tree).is_ok());
         }
     }
+}
+
+/// Writes `bytes` to a fresh file named `name` in the temporary folder; returns its path.
+fn temp_file(name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let path = std::env::temp_dir().join(format!("vunify-{}-{name}", std::process::id()));
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// Recomputes every section's checksum in the table, and the table's: a file whose numbers lie
+/// while its checksums hold, as a writer with a bug would make it.
+fn reseal(bytes: &mut [u8]) {
+    let count = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let u64_at = |b: &[u8], i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap()) as usize;
+    for i in 0..count {
+        let at = 16 + 32 * i;
+        let (offset, len) = (u64_at(bytes, at + 8), u64_at(bytes, at + 16));
+        let sum = crc32fast::hash(&bytes[offset..offset + len]);
+        bytes[at + 24..at + 28].copy_from_slice(&sum.to_le_bytes());
+    }
+    let end = 16 + 32 * count;
+    let sum = crc32fast::hash(&bytes[..end]);
+    bytes[end..end + 4].copy_from_slice(&sum.to_le_bytes());
+}
+
+/// Where section `tag`'s body lies in a file.
+fn section(bytes: &[u8], tag: &[u8; 4]) -> std::ops::Range<usize> {
+    let count = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap()) as usize;
+    (0..count)
+        .map(|i| 16 + 32 * i)
+        .find(|&at| &bytes[at..at + 4] == tag)
+        .map(|at| u64_at(at + 8)..u64_at(at + 8) + u64_at(at + 16))
+        .unwrap()
+}
+
+/// A paged file numbers its leaves depth-first, so a page read alone gives each of its nodes the
+/// leaves under it as a range (what a streaming reader places triangles by), the same ranges as
+/// the whole tree's.
+#[test]
+fn each_page_read_alone_knows_the_leaves_under_its_nodes() {
+    let bytes = vtree::to_bytes_with(&paged_tree(), vtree::Encoding::Paged);
+    let path = temp_file("leaves.vtree", &bytes);
+    let file = vtree::PagedFile::open(&path).unwrap();
+    assert!(file.leaves_depth_first());
+    let whole = vtree::read(&path).unwrap();
+    let ranges = leaf_ranges(&whole).expect("the file's leaves are depth-first");
+    assert_eq!(ranges[whole.root() as usize], [0, whole.leaf_count]);
+    for (p, entry) in file.entries.iter().enumerate() {
+        let page = file.read_page(p).unwrap();
+        assert_eq!(page.leaves.len(), page.ids.len());
+        for (&id, &leaves) in page.ids.iter().zip(&page.leaves) {
+            assert_eq!(leaves, ranges[id as usize], "page {p}, node {id}");
+        }
+        assert_eq!(entry.leaves, Some(ranges[entry.root as usize]));
+    }
+    std::fs::remove_file(&path).unwrap();
+}
+
+/// A directory whose leaves do not match its pages (checksums intact) is refused, naming the
+/// page, by both readers; the page-by-page reader refuses only the pages it touches.
+#[test]
+fn a_directory_that_lies_about_a_pages_leaves_is_refused() {
+    let mut bytes = vtree::to_bytes_with(&paged_tree(), vtree::Encoding::Paged);
+    let dir = section(&bytes, b"PAGE");
+    // Page 0's root: one leaf later than it is (12 bytes of head, then 32 an entry).
+    let first = dir.start + 12 + 24;
+    let lo = u32::from_le_bytes(bytes[first..first + 4].try_into().unwrap());
+    bytes[first..first + 8]
+        .copy_from_slice(&[(lo + 1).to_le_bytes(), (lo + 2).to_le_bytes()].concat());
+    reseal(&mut bytes);
+    let error = vtree::read_bytes(&bytes, Path::new("lies.vtree")).unwrap_err();
+    assert!(error.to_string().contains("leaves"), "{error}");
+    let path = temp_file("lies.vtree", &bytes);
+    let file = vtree::PagedFile::open(&path).unwrap();
+    let error = file.read_page(0).err().expect("page 0 refused").to_string();
+    assert!(
+        error.contains("page 0") && error.contains("leaves"),
+        "{error}"
+    );
+    // Page 0 and the page that holds its root's parent, whose children's leaves no longer
+    // follow each other; every other page reads.
+    let refused = (0..file.entries.len())
+        .filter(|&p| file.read_page(p).is_err())
+        .count();
+    assert_eq!(refused, 2);
+    std::fs::remove_file(&path).unwrap();
+}
+
+/// A version 4 file (written by the build before leaves were numbered depth-first; the cessna)
+/// still reads whole and page by page, its pages without leaf ranges.
+#[test]
+fn a_version_4_file_still_reads() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/cessna-v4.vtree");
+    assert_eq!(std::fs::read(&path).unwrap()[8..12], 4u32.to_le_bytes());
+    let tree = vtree::read(&path).unwrap();
+    assert_eq!((tree.leaf_count, tree.nodes.len()), (6795, 13589));
+    let file = vtree::PagedFile::open(&path).unwrap();
+    assert!(!file.leaves_depth_first());
+    let page = file.read_page(0).unwrap();
+    assert!(page.leaves.is_empty() && !page.ids.is_empty());
+    assert_eq!(
+        file.survey().unwrap().root,
+        Some(tree.nodes[tree.root() as usize])
+    );
 }

@@ -12,12 +12,14 @@ use crate::simplify::Metric;
 use std::path::{Path, PathBuf};
 
 pub const MAGIC: [u8; 8] = *b"VUNIFYVT";
-/// The newest format version this build reads and writes: 4, the paged, quantised nodes of
-/// [`Encoding::Paged`] (sections `PAGE` and `PDAT` instead of `NODE`, `TRIS` and `VOFF`). An
+/// The newest format version this build reads and writes: 5, the paged, quantised nodes of
+/// [`Encoding::Paged`] (sections `PAGE` and `PDAT` instead of `NODE`, `TRIS` and `VOFF`) with the
+/// leaves numbered depth-first and each page's leaves in the directory (what a streaming reader
+/// needs; version 4, still read, keeps the input's order). An
 /// exact file is version 3 with wedges (the optional `WEDG` section, per-corner appearance), 2
 /// with appearance but no wedges (the optional `UVTX`, `TEXS` and `MATL` sections), else 1,
 /// which readers from before appearance read too.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// The version of an exact tree with wedges (see [`Encoding::Exact`]).
 const WEDGE_VERSION: u32 = 3;
 /// The oldest version this build reads.
@@ -164,10 +166,13 @@ fn write_to(
         ),
     };
     let base_sections = sections.len();
+    // The sections that name nodes name them as the pages do: a paged file's leaves depth-first.
+    let in_file = paged.as_ref().map(|p| FileOrder::new(&p.leaf_id, tree));
     let (mut uvtx, mut texs) = (Vec::new(), Vec::new());
     if let Some(a) = &tree.appearance {
         uvtx.reserve_exact(12 * a.uvs.len());
-        for (uv, t) in a.uvs.iter().zip(&a.texture_of) {
+        let order = |n: usize| in_file.as_ref().map_or(n, |f| f.node_at(n));
+        for (uv, t) in (0..a.uvs.len()).map(|n| (&a.uvs[order(n)], &a.texture_of[order(n)])) {
             uvtx.extend_from_slice(&uv[0].to_le_bytes());
             uvtx.extend_from_slice(&uv[1].to_le_bytes());
             uvtx.extend_from_slice(&t.to_le_bytes());
@@ -185,11 +190,21 @@ fn write_to(
         let json = serde_json::to_vec(&m.list).expect("materials serialize");
         matl.extend_from_slice(&(json.len() as u32).to_le_bytes());
         matl.extend_from_slice(&json);
-        matl.extend_from_slice(bytemuck::cast_slice(&m.of));
+        match &in_file {
+            Some(f) => {
+                for n in 0..m.of.len() {
+                    matl.extend_from_slice(&m.of[f.node_at(n)].to_le_bytes());
+                }
+            }
+            None => matl.extend_from_slice(bytemuck::cast_slice(&m.of)),
+        }
         sections.push(Body::one(&matl));
         tags.push(OPTIONAL[2]);
     }
-    let wedg = tree.wedges.as_ref().map(wedge_section);
+    let wedg = tree
+        .wedges
+        .as_ref()
+        .map(|w| wedge_section(w, in_file.as_ref()));
     if let Some(w) = &wedg {
         sections.push(Body::one(w));
         tags.push(OPTIONAL[3]);
@@ -249,11 +264,19 @@ fn write_sections(
     Ok(())
 }
 
-/// The `WEDG` section: the count, then each per-wedge array whole, then the corners.
-fn wedge_section(w: &super::Wedges) -> Vec<u8> {
+/// The `WEDG` section: the count, then each per-wedge array whole, then the corners; each
+/// wedge's node as the file numbers it (`in_file`, a paged file's order).
+fn wedge_section(w: &super::Wedges, in_file: Option<&FileOrder>) -> Vec<u8> {
     let mut out = Vec::with_capacity(4 + 48 * w.len() + 12 * w.corners.len());
     out.extend_from_slice(&(w.len() as u32).to_le_bytes());
-    out.extend_from_slice(bytemuck::cast_slice(&w.node));
+    match in_file {
+        Some(f) => {
+            for &u in &w.node {
+                out.extend_from_slice(&f.id(u).to_le_bytes());
+            }
+        }
+        None => out.extend_from_slice(bytemuck::cast_slice(&w.node)),
+    }
     out.extend_from_slice(bytemuck::cast_slice(&w.parent));
     out.extend_from_slice(bytemuck::cast_slice(&w.uv));
     out.extend_from_slice(bytemuck::cast_slice(&w.texture));
@@ -262,6 +285,34 @@ fn wedge_section(w: &super::Wedges) -> Vec<u8> {
     out.extend_from_slice(bytemuck::cast_slice(&w.normal));
     out.extend_from_slice(bytemuck::cast_slice(&w.corners));
     out
+}
+
+/// A paged file's numbering of a tree's nodes: its leaves depth-first (see
+/// [`super::paged::depth_first_leaves`]), its internal nodes as they are.
+struct FileOrder<'a> {
+    leaf_id: &'a [u32],
+    /// The tree's leaf at each leaf id of the file.
+    leaf_at: Vec<u32>,
+}
+
+impl FileOrder<'_> {
+    fn new<'a>(leaf_id: &'a [u32], tree: &VertexTree) -> FileOrder<'a> {
+        let mut leaf_at = vec![0u32; tree.leaf_count as usize];
+        for (u, &id) in leaf_id.iter().enumerate() {
+            leaf_at[id as usize] = u as u32;
+        }
+        FileOrder { leaf_id, leaf_at }
+    }
+
+    /// Node `u`'s id in the file.
+    fn id(&self, u: u32) -> u32 {
+        self.leaf_id.get(u as usize).copied().unwrap_or(u)
+    }
+
+    /// The tree's node at id `n` of the file.
+    fn node_at(&self, n: usize) -> usize {
+        self.leaf_at.get(n).map_or(n, |&u| u as usize)
+    }
 }
 
 /// Writes atomically: a temporary file beside `path`, flushed to disk, then renamed over it, so a
@@ -379,13 +430,15 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         let (_, dir) = need(b"PAGE")?;
         let (data_at, data) = need(b"PDAT")?;
         let (scale, position_error, entries) =
-            super::paged::directory(dir, data.len() as u64, |m| fail.invalid(m))?;
+            super::paged::directory(dir, data.len() as u64, version, |m| fail.invalid(m))?;
+        let roots = super::paged::RootLeaves::of(&entries);
         let cx = super::paged::PageContext {
             path,
             leaf_count: leaves,
             node_count: nodes,
             scale,
             colors: flags & FLAG_NODE_COLORS != 0,
+            roots: roots.as_ref(),
         };
         let (n, t, o) = super::paged::decode_all(&cx, &entries, data, data_at)?;
         if t.len() != tris as usize {
@@ -469,13 +522,16 @@ pub fn read_pages(bytes: &[u8], path: &Path) -> Result<Vec<super::PageNodes>, Fo
         return Err(fail.invalid(format!("META is {} bytes, expected {META_LEN}", meta.len())));
     }
     let m = Cursor { bytes: meta };
-    let (scale, _, entries) = super::paged::directory(dir, data.len() as u64, |m| fail.invalid(m))?;
+    let (scale, _, entries) =
+        super::paged::directory(dir, data.len() as u64, version, |m| fail.invalid(m))?;
+    let roots = super::paged::RootLeaves::of(&entries);
     let cx = super::paged::PageContext {
         path,
         leaf_count: m.u32(0),
         node_count: m.u32(4),
         scale,
         colors: m.u32(16) & FLAG_NODE_COLORS != 0,
+        roots: roots.as_ref(),
     };
     entries
         .iter()

@@ -1,7 +1,8 @@
 //! The binary vertex tree of Tao et al. (§3.1): leaves are the input vertices, each internal node the
 //! `vunify` of its two children, the root the whole scene merged to one vertex.
 //!
-//! Nodes are numbered leaves first (`0..leaf_count`, the input's vertex order), then internal nodes in
+//! Nodes are numbered leaves first (`0..leaf_count`: a built tree's in the input's vertex order, a
+//! tree read from a paged file depth-first, see [`paged`]), then internal nodes in
 //! build order, so children always precede their parent and the root is the last node. Triangles are
 //! stored once, as leaf indices, grouped by the node whose merge makes them vanish ("the triangle set
 //! enumerated by u"); a front maps their corners to its vertices.

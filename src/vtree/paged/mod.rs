@@ -1,4 +1,4 @@
-//! The paged, quantised node layout of `.vtree` version 4 (docs/FORMAT.md): the tree cut into
+//! The paged, quantised node layout of `.vtree` versions 4 and 5 (docs/FORMAT.md): the tree cut into
 //! *pages*, connected pieces of at most [`PAGE_NODES`] nodes (a page's root and its descendants
 //! down to where other pages begin), each stored on its own with its own checksum, so that a
 //! reader can fetch the pages it needs and check each alone.
@@ -14,6 +14,13 @@
 //! 1977): children before parents, each node's open piece grows by its children's until it would
 //! pass the page size, when its heaviest children's pieces close as pages. It makes the fewest
 //! pages of a bounded size that are connected.
+//!
+//! Version 5 numbers the leaves depth-first (a node's first child's leaves before its second's),
+//! so that the leaves under any node are a range of ids, and the directory gives each page's
+//! root its range: a page read alone knows every one of its nodes' leaves (see
+//! [`DecodedPage::leaves`]), and a triangle's corners (leaves) say which node of a cut holds them
+//! without the pages below it. A streaming reader needs nothing else to place a triangle.
+//! Internal nodes keep the builder's order (a parent after its children).
 
 mod codes;
 mod open;
@@ -21,7 +28,7 @@ mod read;
 mod write;
 
 pub use open::{PagedFile, Survey};
-pub use read::{DecodedPage, PageContext, decode_all, decode_page, directory};
+pub use read::{DecodedPage, PageContext, RootLeaves, decode_all, decode_page, directory};
 pub use write::{DIRECTORY_HEAD, encode};
 
 use super::{NONE, VertexTree};
@@ -31,8 +38,13 @@ use rayon::prelude::*;
 /// Nodes at most in a page: a few thousand, as a streaming reader fetches them (about 80 KB).
 pub const PAGE_NODES: usize = 4096;
 /// Bytes of a page's entry in the directory (`PAGE`): its offset in `PDAT` (u64), length (u32),
-/// CRC-32 (u32), node count (u32) and root node (u32).
-pub const DIRECTORY_ENTRY: usize = 24;
+/// CRC-32 (u32), node count (u32), root node (u32), and the root's leaves (u32 first, u32 past
+/// the last).
+pub const DIRECTORY_ENTRY: usize = 32;
+/// The entry of version 4, without the leaves.
+pub const DIRECTORY_ENTRY_V4: usize = 24;
+/// The first version whose leaves are numbered depth-first.
+pub const DEPTH_FIRST_VERSION: u32 = 5;
 
 /// A page's place in the file and what it holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,12 +54,18 @@ pub struct PageEntry {
     pub crc: u32,
     pub nodes: u32,
     pub root: u32,
+    /// The leaves under the page's root, `[first, past the last)` (version 5; `None` in a version
+    /// 4 file, whose leaves keep the input's order).
+    pub leaves: Option<[u32; 2]>,
 }
 
 /// What [`encode`] makes: the directory, and the pages, which the file holds back to back.
 pub struct Encoded {
     pub directory: Vec<u8>,
     pub pages: Pages,
+    /// Each leaf's id in the file, by its id in the tree (see [`depth_first_leaves`]): what the
+    /// sections beside the pages that name nodes renumber them by.
+    pub leaf_id: Vec<u32>,
 }
 
 /// The coded pages, in page order: in memory, or in a temporary file while a file is written
@@ -168,6 +186,48 @@ pub fn paginate(tree: &VertexTree) -> (Vec<u32>, Vec<u32>) {
     }
     // Pages were numbered from the last root down: page k holds root `roots[k]`.
     (page_of, roots)
+}
+
+/// The leaves numbered depth-first, a node's first child before its second: each leaf's new id
+/// (by its id in `tree`), and the leaves under each page's root (by page, with `page_of` and
+/// `roots` from [`paginate`]) as a range of new ids. Internal nodes keep their ids.
+///
+/// Two passes over the ids rather than a walk: children before parents, each node's leaf count;
+/// then parents before children, each node's first leaf. A walk follows one node to the next, a
+/// cache miss each that waits for the one before (seconds at a hundred million nodes); the passes'
+/// misses do not wait for each other.
+pub fn depth_first_leaves(
+    tree: &VertexTree,
+    page_of: &[u32],
+    roots: &[u32],
+) -> (Vec<u32>, Vec<[u32; 2]>) {
+    let (leaves, n) = (tree.leaf_count as usize, tree.nodes.len());
+    // Each node's leaf count, then (going down) its first leaf: one array, a node's count
+    // replaced by its first leaf when its parent is reached.
+    let mut at = vec![1u32; n];
+    for u in leaves..n {
+        at[u] = tree.nodes[u].children.map(|c| at[c as usize]).iter().sum();
+    }
+    let mut ranges = vec![[0u32; 2]; roots.len()];
+    let mut note = |u: u32, first: u32, count: u32| {
+        let p = page_of[u as usize] as usize;
+        if roots[p] == u {
+            ranges[p] = [first, first + count];
+        }
+    };
+    note(tree.root(), 0, at[n - 1]);
+    at[n - 1] = 0;
+    for u in (leaves..n).rev() {
+        let first = at[u];
+        let [a, b] = tree.nodes[u].children;
+        let count = at[a as usize];
+        note(a, first, count);
+        note(b, first + count, at[b as usize]);
+        at[a as usize] = first;
+        at[b as usize] = first + count;
+    }
+    at.truncate(leaves);
+    (at, ranges)
 }
 
 /// Whether any node's colour differs from white as stored (a build blends white into

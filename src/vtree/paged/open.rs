@@ -4,7 +4,7 @@
 //! checked alone, against its own checksum in the directory, when it is read.
 
 use super::PageEntry;
-use super::read::{DecodedPage, PageContext, decode_page, directory};
+use super::read::{DecodedPage, PageContext, RootLeaves, check_top, decode_page, directory};
 use crate::simplify::Metric;
 use crate::vtree::PartInfo;
 use crate::vtree::format::{
@@ -18,7 +18,7 @@ use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// A paged `.vtree` (format version 4) with its directory in memory and its pages on disk.
+/// A paged `.vtree` (format version 4 or 5) with its directory in memory and its pages on disk.
 pub struct PagedFile {
     path: PathBuf,
     file: Mutex<std::fs::File>,
@@ -39,6 +39,8 @@ pub struct PagedFile {
     /// materials, wedges), which this reader does not read.
     pub appearance: bool,
     pub entries: Vec<PageEntry>,
+    /// Version 5's leaves of each page's root (`None` in a version 4 file).
+    roots: Option<RootLeaves>,
     /// Where `PDAT` begins in the file.
     data_at: u64,
 }
@@ -111,13 +113,15 @@ impl PagedFile {
                 "META says {node_count} nodes for {leaf_count} leaves"
             )));
         }
-        let (scale, position_error, entries) = directory(&dir, data_len, |m| fail.invalid(m))?;
+        let (scale, position_error, entries) =
+            directory(&dir, data_len, version, |m| fail.invalid(m))?;
         let total: u64 = entries.iter().map(|e| e.nodes as u64).sum();
         if total != node_count as u64 {
             return Err(fail.invalid(format!(
                 "the pages hold {total} nodes, META says {node_count}"
             )));
         }
+        check_top(&entries, leaf_count, node_count).map_err(|m| fail.invalid(m))?;
         Ok(PagedFile {
             path: path.to_path_buf(),
             file: Mutex::new(file),
@@ -132,9 +136,16 @@ impl PagedFile {
             has_normals: flags & FLAG_NORMALS != 0,
             parts,
             appearance,
+            roots: RootLeaves::of(&entries),
             entries,
             data_at,
         })
+    }
+
+    /// Whether the file numbers its leaves depth-first, each page giving its nodes' leaves
+    /// ([`DecodedPage::leaves`]): version 5, what a streaming reader needs.
+    pub fn leaves_depth_first(&self) -> bool {
+        self.roots.is_some()
     }
 
     /// Reads and decodes page `page`, checked alone (its checksum, every id and reference in
@@ -167,6 +178,7 @@ impl PagedFile {
             node_count: self.node_count,
             scale: self.scale,
             colors: self.colors,
+            roots: self.roots.as_ref(),
         };
         decode_page(&cx, page, entry, &bytes, at)
     }

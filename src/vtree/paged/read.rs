@@ -2,7 +2,9 @@
 //! number finite), and the whole tree from all of them.
 
 use super::codes::*;
-use super::{DIRECTORY_ENTRY, DIRECTORY_HEAD, PAGE_NODES, PageEntry};
+use super::{
+    DEPTH_FIRST_VERSION, DIRECTORY_ENTRY, DIRECTORY_ENTRY_V4, DIRECTORY_HEAD, PAGE_NODES, PageEntry,
+};
 use crate::color::srgb_to_linear;
 use crate::vtree::format::{FormatError, FormatErrorKind};
 use crate::vtree::{NONE, Node};
@@ -17,6 +19,9 @@ pub struct DecodedPage {
     /// Per internal node of the page, in order, how many triangles; then all of them.
     pub counts: Vec<u32>,
     pub triangles: Vec<[u32; 3]>,
+    /// Per node, the leaves under it, `[first, past the last)`, with the file's leaves numbered
+    /// depth-first (version 5; empty for version 4).
+    pub leaves: Vec<[u32; 2]>,
 }
 
 impl DecodedPage {
@@ -25,7 +30,27 @@ impl DecodedPage {
         (self.ids.len() * 4
             + self.nodes.len() * std::mem::size_of::<Node>()
             + self.counts.len() * 4
-            + self.triangles.len() * 12) as u64
+            + self.triangles.len() * 12
+            + self.leaves.len() * 8) as u64
+    }
+}
+
+/// The leaves under each page's root by the root's id, from the directory of a version 5 file:
+/// what a page reads of the pages below it to know its own nodes' leaves.
+pub struct RootLeaves(rustc_hash::FxHashMap<u32, [u32; 2]>);
+
+impl RootLeaves {
+    /// From the directory's entries; `None` for a version 4 file's, which have none.
+    pub fn of(entries: &[PageEntry]) -> Option<RootLeaves> {
+        entries
+            .iter()
+            .map(|e| e.leaves.map(|l| (e.root, l)))
+            .collect::<Option<_>>()
+            .map(RootLeaves)
+    }
+
+    pub fn get(&self, root: u32) -> Option<[u32; 2]> {
+        self.0.get(&root).copied()
     }
 }
 
@@ -81,6 +106,8 @@ pub struct PageContext<'a> {
     pub node_count: u32,
     pub scale: f32,
     pub colors: bool,
+    /// Version 5's leaves of each page's root (`None` for version 4).
+    pub roots: Option<&'a RootLeaves>,
 }
 
 /// Decodes page `page` (`bytes`, at `base` in the file, with `entry`), checking its checksum,
@@ -127,6 +154,7 @@ pub fn decode_page(
         nodes: Vec::with_capacity(count),
         counts: Vec::new(),
         triangles: Vec::new(),
+        leaves: Vec::new(),
     };
     let (mut previous, mut first_corner) = (0u64, 0i64);
     let mut children: Vec<[u64; 2]> = Vec::new();
@@ -186,10 +214,24 @@ pub fn decode_page(
     if r.at != bytes.len() {
         return Err(r.fail(&format!("{} bytes after its last node", bytes.len() - r.at)));
     }
-    // Children: in this page by index, or a child page's root by id.
+    link_children(&mut out, &children, cx.leaf_count, &r)?;
+    if let Some(roots) = cx.roots {
+        out.leaves = leaves_of(&out, roots, entry, cx.leaf_count, &r)?;
+    }
+    Ok(out)
+}
+
+/// Sets each internal node's children from their codes (`children`, in order): an earlier node
+/// of this page by index, or a child page's root by id (below the node's own).
+fn link_children(
+    out: &mut DecodedPage,
+    children: &[[u64; 2]],
+    leaf_count: u32,
+    r: &Reader,
+) -> Result<(), FormatError> {
     let mut k = 0;
-    for i in 0..count {
-        if out.ids[i] < cx.leaf_count {
+    for i in 0..out.ids.len() {
+        if out.ids[i] < leaf_count {
             continue;
         }
         for (slot, &c) in children[k].iter().enumerate() {
@@ -209,7 +251,51 @@ pub fn decode_page(
         }
         k += 1;
     }
-    Ok(out)
+    Ok(())
+}
+
+/// The leaves under each node of `page` (see [`DecodedPage::leaves`]), children first: a leaf's
+/// its own id, a page root's from the directory (`roots`), an internal node's its first child's
+/// followed at once by its second's. Anything else is not depth-first, and an error; so is a
+/// page whose root's leaves are not those `entry` gives it.
+fn leaves_of(
+    page: &DecodedPage,
+    roots: &RootLeaves,
+    entry: &PageEntry,
+    leaf_count: u32,
+    r: &Reader,
+) -> Result<Vec<[u32; 2]>, FormatError> {
+    let mut leaves: Vec<[u32; 2]> = Vec::with_capacity(page.ids.len());
+    for (i, (&id, node)) in page.ids.iter().zip(&page.nodes).enumerate() {
+        if id < leaf_count {
+            leaves.push([id, id + 1]);
+            continue;
+        }
+        let [a, b] = node
+            .children
+            .map(|c| match page.ids[..i].binary_search(&c) {
+                Ok(j) => Ok(leaves[j]),
+                Err(_) => roots
+                    .get(c)
+                    .ok_or_else(|| r.fail(&format!("node {id}'s child {c} is no page's root"))),
+            });
+        let (a, b) = (a?, b?);
+        if a[1] != b[0] {
+            return Err(r.fail(&format!(
+                "node {id}'s children hold leaves {}..{} and {}..{}: not numbered depth-first",
+                a[0], a[1], b[0], b[1]
+            )));
+        }
+        leaves.push([a[0], b[1]]);
+    }
+    let root = leaves.last().copied();
+    if root != entry.leaves {
+        return Err(r.fail(&format!(
+            "its root holds leaves {root:?}; the directory says {:?}",
+            entry.leaves
+        )));
+    }
+    Ok(leaves)
 }
 
 /// The directory: page count, scale, position error and the entries, checked against the length
@@ -217,8 +303,15 @@ pub fn decode_page(
 pub fn directory(
     bytes: &[u8],
     data_len: u64,
+    version: u32,
     fail: impl Fn(String) -> FormatError,
 ) -> Result<(f32, f32, Vec<PageEntry>), FormatError> {
+    let depth_first = version >= DEPTH_FIRST_VERSION;
+    let entry_len = if depth_first {
+        DIRECTORY_ENTRY
+    } else {
+        DIRECTORY_ENTRY_V4
+    };
     if bytes.len() < DIRECTORY_HEAD {
         return Err(fail("PAGE is shorter than its head".into()));
     }
@@ -226,7 +319,7 @@ pub fn directory(
     let count = u32_at(0) as usize;
     let scale = f32::from_bits(u32_at(4));
     let position_error = f32::from_bits(u32_at(8));
-    if bytes.len() != DIRECTORY_HEAD + count * DIRECTORY_ENTRY {
+    if bytes.len() as u64 != DIRECTORY_HEAD as u64 + count as u64 * entry_len as u64 {
         return Err(fail(format!(
             "PAGE is {} bytes, which {count} pages do not add up to",
             bytes.len()
@@ -240,14 +333,20 @@ pub fn directory(
     let mut entries = Vec::with_capacity(count);
     let mut expected = 0u64;
     for p in 0..count {
-        let at = DIRECTORY_HEAD + p * DIRECTORY_ENTRY;
+        let at = DIRECTORY_HEAD + p * entry_len;
         let entry = PageEntry {
             offset: u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes")),
             length: u32_at(at + 8),
             crc: u32_at(at + 12),
             nodes: u32_at(at + 16),
             root: u32_at(at + 20),
+            leaves: depth_first.then(|| [u32_at(at + 24), u32_at(at + 28)]),
         };
+        if let Some([first, end]) = entry.leaves
+            && first >= end
+        {
+            return Err(fail(format!("page {p}'s root holds leaves {first}..{end}")));
+        }
         if entry.offset != expected || entry.offset + entry.length as u64 > data_len {
             return Err(fail(format!(
                 "page {p} at {} ({} bytes) does not follow the one before it inside PDAT",
@@ -264,6 +363,26 @@ pub fn directory(
         )));
     }
     Ok((scale, position_error, entries))
+}
+
+/// Checks that the tree's root is the last page's root and, in a version 5 file, holds every
+/// leaf (each page checks the rest of its leaves when it is read).
+pub fn check_top(entries: &[PageEntry], leaf_count: u32, node_count: u32) -> Result<(), String> {
+    let last = entries.last().ok_or("PAGE lists no pages")?;
+    if node_count == 0 || last.root != node_count - 1 {
+        return Err(format!(
+            "the last page's root is node {}, not the tree's root {}",
+            last.root,
+            node_count - 1
+        ));
+    }
+    match last.leaves {
+        Some(l) if l != [0, leaf_count] => Err(format!(
+            "the root's page holds leaves {}..{}, not all {leaf_count}",
+            l[0], l[1]
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// A tree's nodes, triangles and their offsets, as [`decode_all`] returns them.
@@ -290,6 +409,7 @@ pub fn decode_all(
             cx.node_count
         )));
     }
+    check_top(entries, cx.leaf_count, cx.node_count).map_err(fail)?;
     let n = cx.node_count as usize;
     let leaves = cx.leaf_count as usize;
     let mut nodes = vec![bytemuck::Zeroable::zeroed(); n];

@@ -1,7 +1,7 @@
 //! Writing pages: [`encode`] cuts a tree into pages and codes each on its own.
 
 use super::codes::*;
-use super::{DIRECTORY_ENTRY, Encoded, PageEntry, Pages, paginate};
+use super::{DIRECTORY_ENTRY, Encoded, PageEntry, Pages, depth_first_leaves, paginate};
 use crate::color::srgb8;
 use crate::vtree::{NONE, Node, VertexTree};
 use glam::Vec3;
@@ -10,8 +10,9 @@ use rayon::prelude::*;
 /// Pages coded at once, on all cores.
 const PAGES_AT_ONCE: usize = 256;
 
-/// Serialises `tree`'s nodes and triangles as pages. `colors`: whether node colours are stored
-/// (white otherwise).
+/// Serialises `tree`'s nodes and triangles as pages, its leaves numbered depth-first (see
+/// [`depth_first_leaves`]; [`Encoded::leaf_id`] says how). `colors`: whether node colours are
+/// stored (white otherwise).
 /// The pages wait in a temporary file in `spill` when given, else in memory.
 pub fn encode(
     tree: &VertexTree,
@@ -19,12 +20,21 @@ pub fn encode(
     spill: Option<&std::path::Path>,
 ) -> std::io::Result<Encoded> {
     let (page_of, roots) = paginate(tree);
+    let (leaf_id, leaves) = depth_first_leaves(tree, &page_of, &roots);
     let n = tree.nodes.len();
     let scale = scale_for(tree.diagonal());
+    let renumber = Renumber {
+        leaf_id: &leaf_id,
+        leaf_count: tree.leaf_count,
+    };
+    // Each page's nodes by their ids in the file (leaves first, in depth-first order).
     let mut members: Vec<Vec<u32>> = vec![Vec::new(); roots.len()];
     for u in 0..n as u32 {
         members[page_of[u as usize] as usize].push(u);
     }
+    members
+        .par_iter_mut()
+        .for_each(|m| m.sort_unstable_by_key(|&u| renumber.id(u)));
     // Children first, a page at a time: its grid and positions, then each node's error and
     // sphere, grown by what quantising moved, rounded up and never below a child's; then the
     // page's bytes. Pages in waves, each page's child pages in earlier waves: a wave's pages on
@@ -41,8 +51,15 @@ pub fn encode(
             let pages: Vec<(usize, Stored, f32, Vec<u8>)> = some
                 .par_iter()
                 .map(|&p| {
-                    let page =
-                        PageWriter::new(tree, &members[p], p as u32, &page_of, scale, colors);
+                    let page = PageWriter::new(
+                        tree,
+                        &members[p],
+                        p as u32,
+                        &page_of,
+                        renumber,
+                        scale,
+                        colors,
+                    );
                     let codes = page.codes(&done);
                     let body = page.write(&codes);
                     // The page's root is its last node (a parent's id is above its children's).
@@ -69,19 +86,41 @@ pub fn encode(
             length,
             crc,
             nodes: members[p].len() as u32,
-            root: roots[p],
+            root: renumber.id(roots[p]),
+            leaves: Some(leaves[p]),
         };
         directory.extend_from_slice(&entry.offset.to_le_bytes());
         directory.extend_from_slice(&entry.length.to_le_bytes());
         directory.extend_from_slice(&entry.crc.to_le_bytes());
         directory.extend_from_slice(&entry.nodes.to_le_bytes());
         directory.extend_from_slice(&entry.root.to_le_bytes());
+        for x in leaves[p] {
+            directory.extend_from_slice(&x.to_le_bytes());
+        }
         offset += length as u64;
     }
     Ok(Encoded {
         directory,
         pages: bodies,
+        leaf_id,
     })
+}
+
+/// A node's id in the file: a leaf's depth-first, an internal node's its own.
+#[derive(Clone, Copy)]
+struct Renumber<'a> {
+    leaf_id: &'a [u32],
+    leaf_count: u32,
+}
+
+impl Renumber<'_> {
+    fn id(&self, u: u32) -> u32 {
+        if u < self.leaf_count {
+            self.leaf_id[u as usize]
+        } else {
+            u
+        }
+    }
 }
 
 /// Bytes of the directory before its entries: page count (u32), scale (f32), position error (f32).
@@ -89,10 +128,13 @@ pub const DIRECTORY_HEAD: usize = 12;
 
 struct PageWriter<'a> {
     tree: &'a VertexTree,
-    /// The page's nodes, in increasing id.
+    /// The page's nodes, in increasing id in the file.
     ids: &'a [u32],
+    /// Their ids in the file.
+    file_ids: Vec<u32>,
     page: u32,
     page_of: &'a [u32],
+    renumber: Renumber<'a>,
     /// The page's grid, over its nodes' positions.
     grid: Grid,
     scale: f32,
@@ -163,6 +205,7 @@ impl<'a> PageWriter<'a> {
         ids: &'a [u32],
         page: u32,
         page_of: &'a [u32],
+        renumber: Renumber<'a>,
         scale: f32,
         colors: bool,
     ) -> PageWriter<'a> {
@@ -178,12 +221,22 @@ impl<'a> PageWriter<'a> {
         PageWriter {
             tree,
             ids,
+            file_ids: ids.iter().map(|&u| renumber.id(u)).collect(),
             page,
             page_of,
+            renumber,
             grid: Grid::new(lo, hi),
             scale,
             colors,
         }
+    }
+
+    /// A node's index in the page, if it is in it: its place among the page's ids in the file.
+    fn local(&self, u: u32) -> Option<usize> {
+        if self.page_of[u as usize] != self.page {
+            return None;
+        }
+        self.file_ids.binary_search(&self.renumber.id(u)).ok()
     }
 
     /// The page's nodes' codes, children first (ids increase): a child in this page from this
@@ -230,9 +283,9 @@ impl<'a> PageWriter<'a> {
             let mut e = node.error + page_error;
             let mut below = page_error;
             let children = node.children.map(|c| {
-                let child = match self.ids[..k].binary_search(&c) {
-                    Ok(j) => codes.stored(j),
-                    Err(_) => done.roots[self.page_of[c as usize] as usize],
+                let child = match self.local(c) {
+                    Some(j) => codes.stored(j),
+                    None => done.roots[self.page_of[c as usize] as usize],
                 };
                 let (error, (offset, code), at, moved) =
                     (child.error, child.sphere, child.position, child.moved);
@@ -280,7 +333,6 @@ impl<'a> PageWriter<'a> {
             }
         }
         out.extend_from_slice(&codes.page_error.to_le_bytes());
-        let local = |id: u32| self.ids.binary_search(&id).ok();
         let (mut previous, mut first_corner) = (0u64, 0i64);
         let leaves = tree.leaf_count;
         for (k, &u) in self.ids.iter().enumerate() {
@@ -295,8 +347,9 @@ impl<'a> PageWriter<'a> {
                 }
             }
             let node = &tree.nodes[u as usize];
-            put_varint(&mut out, u as u64 - previous);
-            previous = u as u64;
+            let id = self.file_ids[k] as u64;
+            put_varint(&mut out, id - previous);
+            previous = id;
             for c in self.grid.encode(node.position()) {
                 out.extend_from_slice(&c.to_le_bytes());
             }
@@ -316,14 +369,15 @@ impl<'a> PageWriter<'a> {
             }
             out.extend_from_slice(&codes.errors[k].to_le_bytes());
             for c in node.children {
-                match local(c).filter(|_| self.page_of[c as usize] == self.page) {
+                match self.local(c) {
                     Some(i) => put_varint(&mut out, 2 * i as u64),
-                    None => put_varint(&mut out, 2 * c as u64 + 1),
+                    None => put_varint(&mut out, 2 * self.renumber.id(c) as u64 + 1),
                 }
             }
             let tris = tree.vanishing(u);
             put_varint(&mut out, tris.len() as u64);
             for t in tris {
+                let t = t.map(|c| self.renumber.id(c));
                 let c0 = t[0] as i64;
                 put_varint(&mut out, zigzag(c0 - first_corner));
                 first_corner = c0;
