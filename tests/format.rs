@@ -298,23 +298,6 @@ fn paged_tree() -> VertexTree {
         .0
 }
 
-/// Each node's id in a paged file: the leaves numbered depth-first (a node's first child's
-/// leaves before its second's), internal nodes as built.
-fn file_ids(tree: &VertexTree) -> Vec<u32> {
-    let mut id: Vec<u32> = (0..tree.nodes.len() as u32).collect();
-    let (mut next, mut stack) = (0, vec![tree.root()]);
-    while let Some(u) = stack.pop() {
-        if u < tree.leaf_count {
-            id[u as usize] = next;
-            next += 1;
-        } else {
-            let [a, b] = tree.nodes[u as usize].children;
-            stack.extend([b, a]);
-        }
-    }
-    id
-}
-
 /// The leaves under each node of `tree` as a range of ids, if its leaves are numbered
 /// depth-first (`None` otherwise).
 fn leaf_ranges(tree: &VertexTree) -> Option<Vec<[u32; 2]>> {

@@ -2,6 +2,9 @@
 //! meshes*, 1998). A UV seam is one line of nodes, each with a wedge per side; no cut, static or
 //! live, shows one side's texture coordinates on the other side's triangles.
 
+mod common;
+
+use common::file_ids;
 use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use vunify::mesh::{Material, Mesh};
@@ -180,6 +183,45 @@ fn the_file_keeps_the_wedges_and_says_version_3() {
         let err = vtree::check(&bad).expect_err("a wrong parent is caught");
         assert!(err.to_string().contains("wedge 0"), "{err}");
     }
+}
+
+/// A paged file numbers its leaves depth-first, and names them so everywhere: each node's texture
+/// coordinates, texture and material, each wedge's node, each triangle's corners; the rest of
+/// the wedges as built.
+#[test]
+fn a_paged_file_keeps_the_wedges_under_its_own_numbering() {
+    let tree = build(&two_charts());
+    let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
+    let back = vtree::read_bytes(&bytes, std::path::Path::new("t.vtree")).expect("reads");
+    let id = file_ids(&tree);
+    assert_ne!(id, (0..tree.nodes.len() as u32).collect::<Vec<_>>());
+    let file = |u: u32| id[u as usize] as usize;
+    let (a, b) = (
+        tree.appearance.as_ref().unwrap(),
+        back.appearance.as_ref().unwrap(),
+    );
+    let (ma, mb) = (
+        tree.materials.as_ref().unwrap(),
+        back.materials.as_ref().unwrap(),
+    );
+    for u in 0..tree.nodes.len() as u32 {
+        assert_eq!(a.uvs[u as usize], b.uvs[file(u)], "node {u}");
+        assert_eq!(a.texture_of[u as usize], b.texture_of[file(u)], "node {u}");
+        assert_eq!(ma.of[u as usize], mb.of[file(u)], "node {u}");
+    }
+    let (wa, wb) = (tree.wedges.as_ref().unwrap(), back.wedges.as_ref().unwrap());
+    let nodes: Vec<u32> = wa.node.iter().map(|&u| file(u) as u32).collect();
+    assert_eq!(wb.node, nodes);
+    assert_eq!(
+        (&wb.parent, &wb.uv, &wb.corners, &wb.texture),
+        (&wa.parent, &wa.uv, &wa.corners, &wa.texture)
+    );
+    let corners: Vec<[u32; 3]> = tree
+        .triangles
+        .iter()
+        .map(|t| t.map(|c| file(c) as u32))
+        .collect();
+    assert_eq!(back.triangles, corners);
 }
 
 #[test]

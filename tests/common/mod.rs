@@ -159,3 +159,20 @@ pub fn ok(out: &std::process::Output) -> String {
     );
     String::from_utf8(out.stdout.clone()).unwrap()
 }
+
+/// Each node's id in a paged file: the leaves numbered depth-first (a node's first child's
+/// leaves before its second's), internal nodes as built.
+pub fn file_ids(tree: &vunify::vtree::VertexTree) -> Vec<u32> {
+    let mut id: Vec<u32> = (0..tree.nodes.len() as u32).collect();
+    let (mut next, mut stack) = (0, vec![tree.root()]);
+    while let Some(u) = stack.pop() {
+        if u < tree.leaf_count {
+            id[u as usize] = next;
+            next += 1;
+        } else {
+            let [a, b] = tree.nodes[u as usize].children;
+            stack.extend([b, a]);
+        }
+    }
+    id
+}
