@@ -601,33 +601,6 @@ fn temp_file(name: &str, bytes: &[u8]) -> std::path::PathBuf {
     path
 }
 
-/// Recomputes every section's checksum in the table, and the table's: a file whose numbers lie
-/// while its checksums hold, as a writer with a bug would make it.
-fn reseal(bytes: &mut [u8]) {
-    let count = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    let u64_at = |b: &[u8], i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap()) as usize;
-    for i in 0..count {
-        let at = 16 + 32 * i;
-        let (offset, len) = (u64_at(bytes, at + 8), u64_at(bytes, at + 16));
-        let sum = crc32fast::hash(&bytes[offset..offset + len]);
-        bytes[at + 24..at + 28].copy_from_slice(&sum.to_le_bytes());
-    }
-    let end = 16 + 32 * count;
-    let sum = crc32fast::hash(&bytes[..end]);
-    bytes[end..end + 4].copy_from_slice(&sum.to_le_bytes());
-}
-
-/// Where section `tag`'s body lies in a file.
-fn section(bytes: &[u8], tag: &[u8; 4]) -> std::ops::Range<usize> {
-    let count = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap()) as usize;
-    (0..count)
-        .map(|i| 16 + 32 * i)
-        .find(|&at| &bytes[at..at + 4] == tag)
-        .map(|at| u64_at(at + 8)..u64_at(at + 8) + u64_at(at + 16))
-        .unwrap()
-}
-
 /// A paged file numbers its leaves depth-first, so a page read alone gives each of its nodes the
 /// leaves under it as a range (what a streaming reader places triangles by), the same ranges as
 /// the whole tree's.

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::file_ids;
+use common::{file_ids, reseal, section};
 use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use vunify::mesh::{Material, Mesh};
@@ -213,15 +213,49 @@ fn a_paged_file_keeps_the_wedges_under_its_own_numbering() {
     let nodes: Vec<u32> = wa.node.iter().map(|&u| file(u) as u32).collect();
     assert_eq!(wb.node, nodes);
     assert_eq!(
-        (&wb.parent, &wb.uv, &wb.corners, &wb.texture),
-        (&wa.parent, &wa.uv, &wa.corners, &wa.texture)
+        (&wb.parent, &wb.uv, &wb.corners, &wb.texture, &wb.material),
+        (&wa.parent, &wa.uv, &wa.corners, &wa.texture, &wa.material)
     );
+    // Colours as sRGB bytes (within half a step), normals as the pages store them.
+    for (k, (ca, cb)) in wa.color.iter().zip(&wb.color).enumerate() {
+        let (a, b) = (Vec3::from_array(*ca), Vec3::from_array(*cb));
+        assert!(a.distance(b) < 0.01, "wedge {k}: {a} against {b}");
+    }
+    for (k, (na, nb)) in wa.normal.iter().zip(&wb.normal).enumerate() {
+        let (a, b) = (Vec3::from_array(*na), Vec3::from_array(*nb));
+        assert!(
+            a == b || a.angle_between(b) < 1e-3,
+            "wedge {k}: {a} against {b}"
+        );
+    }
+    // Coded small: the wedges take a third of the exact layout's bytes or less.
+    let exact = vtree::to_bytes(&tree);
+    let sizes = [&bytes, &exact].map(|b| section(b, b"WEDG").len());
+    assert!(sizes[0] * 3 <= sizes[1], "{sizes:?}");
     let corners: Vec<[u32; 3]> = tree
         .triangles
         .iter()
         .map(|t| t.map(|c| file(c) as u32))
         .collect();
     assert_eq!(back.triangles, corners);
+}
+
+/// A paged file's wedges damaged where their checksum still holds (each byte in turn changed
+/// three ways) are a clear error naming the file or a tree that passes the check, never a panic.
+#[test]
+fn damaged_wedges_are_errors_not_panics() {
+    let bytes = vtree::to_bytes_with(&build(&two_charts()), vtree::Encoding::Paged);
+    let wedg = section(&bytes, b"WEDG");
+    for i in wedg.clone() {
+        for flip in [0x01, 0x80, 0xff] {
+            let mut bad = bytes.clone();
+            bad[i] ^= flip;
+            reseal(&mut bad);
+            if let Err(e) = vtree::read_bytes(&bad, std::path::Path::new("w.vtree")) {
+                assert!(e.to_string().contains("w.vtree"), "{e}");
+            }
+        }
+    }
 }
 
 #[test]

@@ -201,10 +201,10 @@ fn write_to(
         sections.push(Body::one(&matl));
         tags.push(OPTIONAL[2]);
     }
-    let wedg = tree
-        .wedges
-        .as_ref()
-        .map(|w| wedge_section(w, in_file.as_ref()));
+    let wedg = tree.wedges.as_ref().map(|w| match &in_file {
+        Some(f) => super::paged::encode_wedges(w, |u| f.id(u)),
+        None => wedge_section(w),
+    });
     if let Some(w) = &wedg {
         sections.push(Body::one(w));
         tags.push(OPTIONAL[3]);
@@ -264,19 +264,12 @@ fn write_sections(
     Ok(())
 }
 
-/// The `WEDG` section: the count, then each per-wedge array whole, then the corners; each
-/// wedge's node as the file numbers it (`in_file`, a paged file's order).
-fn wedge_section(w: &super::Wedges, in_file: Option<&FileOrder>) -> Vec<u8> {
+/// The `WEDG` section of an exact file: the count, then each per-wedge array whole, then the
+/// corners (a paged file codes it small: [`super::paged::encode_wedges`]).
+fn wedge_section(w: &super::Wedges) -> Vec<u8> {
     let mut out = Vec::with_capacity(4 + 48 * w.len() + 12 * w.corners.len());
     out.extend_from_slice(&(w.len() as u32).to_le_bytes());
-    match in_file {
-        Some(f) => {
-            for &u in &w.node {
-                out.extend_from_slice(&f.id(u).to_le_bytes());
-            }
-        }
-        None => out.extend_from_slice(bytemuck::cast_slice(&w.node)),
-    }
+    out.extend_from_slice(bytemuck::cast_slice(&w.node));
     out.extend_from_slice(bytemuck::cast_slice(&w.parent));
     out.extend_from_slice(bytemuck::cast_slice(&w.uv));
     out.extend_from_slice(bytemuck::cast_slice(&w.texture));
@@ -389,7 +382,7 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
             ))
         })
     };
-    let [uvtx, texs, matl, wedg, tint] = OPTIONAL.map(|t| get(&t).map(|(_, b)| b));
+    let [uvtx, texs, matl, _, tint] = OPTIONAL.map(|t| get(&t).map(|(_, b)| b));
     let (_, meta) = need(b"META")?;
     let (_, part_bytes) = need(b"PART")?;
     if meta.len() != META_LEN {
@@ -486,13 +479,33 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         let images = tree.appearance.as_ref().map_or(0, |a| a.textures.len());
         tree.materials = Some(materials(matl, nodes, images, &fail)?);
     }
-    tree.wedges = match (wedg, tint) {
-        (Some(wedg), tint) => Some(wedges(wedg, tint, tris, &fail)?),
-        (None, None) => None,
-        (None, Some(_)) => return Err(fail.invalid("section TINT without WEDG".into())),
-    };
+    tree.wedges = read_wedges(version, get(b"WEDG"), tint, tris, path)?;
     super::check(&tree).map_err(|e| fail.invalid(format!("the tree is inconsistent: {e}")))?;
     Ok(tree)
+}
+
+/// The wedges of a file of `version`, from `WEDG` (where it lies in the file, and its bytes)
+/// and `TINT`, for `triangles` triangles: the exact layout, or version 5's coded one.
+fn read_wedges(
+    version: u32,
+    wedg: Option<(u64, &[u8])>,
+    tint: Option<&[u8]>,
+    triangles: u32,
+    path: &Path,
+) -> Result<Option<super::Wedges>, FormatError> {
+    let fail = Fail { path };
+    Ok(match (wedg, tint) {
+        (Some((at, bytes)), tint) if version >= super::paged::DEPTH_FIRST_VERSION => {
+            let mut w = super::paged::decode_wedges(bytes, at, triangles, path)?;
+            if let Some(tint) = tint {
+                w.tint = tints(tint, w.len(), &fail)?;
+            }
+            Some(w)
+        }
+        (Some((_, bytes)), tint) => Some(wedges(bytes, tint, triangles, &fail)?),
+        (None, None) => None,
+        (None, Some(_)) => return Err(fail.invalid("section TINT without WEDG".into())),
+    })
 }
 
 /// The pages of a paged (version 4) file: each page's root and nodes, in file order; an empty

@@ -122,6 +122,18 @@ pub(super) fn oct_decode(c: [u16; 2], bits: u32) -> Vec3 {
     Vec3::new(x, y, z).normalize_or_zero()
 }
 
+/// A unit normal (or zero) in three bytes: its two 12-bit octahedral codes `a`, `b` as
+/// `a & 255`, `a >> 8 | (b & 15) << 4`, `b >> 4`.
+pub(super) fn normal_bytes(n: Vec3) -> [u8; 3] {
+    let [a, b] = oct_encode(n, NORMAL_BITS);
+    [a as u8, (a >> 8) as u8 | (b << 4) as u8, (b >> 4) as u8]
+}
+
+pub(super) fn normal_of(bytes: [u8; 3]) -> Vec3 {
+    let [a, b, c] = bytes.map(u16::from);
+    oct_decode([a | (b & 0xf) << 8, b >> 4 | c << 4], NORMAL_BITS)
+}
+
 /// Cone cosines as a byte, rounded down (a wider cone): 0 is −1, every direction.
 pub(super) fn cone_code_down(cos: f32) -> u8 {
     ((cos.clamp(-1.0, 1.0) + 1.0) * 127.5).floor() as u8

@@ -25,10 +25,12 @@
 mod codes;
 mod open;
 mod read;
+mod wedges;
 mod write;
 
 pub use open::{PagedFile, Survey};
 pub use read::{DecodedPage, PageContext, RootLeaves, decode_all, decode_page, directory};
+pub use wedges::{decode_wedges, encode_wedges};
 pub use write::{DIRECTORY_HEAD, encode};
 
 use super::{NONE, VertexTree};

@@ -54,39 +54,40 @@ impl RootLeaves {
     }
 }
 
-/// Reads page bytes: a cursor that fails with the page's offset in the file.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-    base: u64,
-    page: usize,
-    path: &'a std::path::Path,
+/// Reads a page's (or another coded section's) bytes: a cursor that fails with its offset in
+/// the file, naming what it reads (`label`: "page 3").
+pub(super) struct Reader<'a> {
+    pub(super) bytes: &'a [u8],
+    pub(super) at: usize,
+    pub(super) base: u64,
+    pub(super) label: String,
+    pub(super) path: &'a std::path::Path,
 }
 
 impl Reader<'_> {
-    fn fail(&self, what: &str) -> FormatError {
+    pub(super) fn fail(&self, what: &str) -> FormatError {
         FormatError {
             path: self.path.to_path_buf(),
             offset: Some(self.base + self.at as u64),
             kind: FormatErrorKind::Invalid,
-            message: format!("page {}: {what}", self.page),
+            message: format!("{}: {what}", self.label),
         }
     }
-    fn take<const N: usize>(&mut self) -> Result<[u8; N], FormatError> {
+    pub(super) fn take<const N: usize>(&mut self) -> Result<[u8; N], FormatError> {
         let b = self
             .bytes
             .get(self.at..self.at + N)
-            .ok_or_else(|| self.fail("ends inside a node"))?;
+            .ok_or_else(|| self.fail("ends too soon"))?;
         self.at += N;
         Ok(b.try_into().expect("N bytes"))
     }
-    fn u16(&mut self) -> Result<u16, FormatError> {
+    pub(super) fn u16(&mut self) -> Result<u16, FormatError> {
         Ok(u16::from_le_bytes(self.take()?))
     }
-    fn f32(&mut self) -> Result<f32, FormatError> {
+    pub(super) fn f32(&mut self) -> Result<f32, FormatError> {
         Ok(f32::from_le_bytes(self.take()?))
     }
-    fn varint(&mut self) -> Result<u64, FormatError> {
+    pub(super) fn varint(&mut self) -> Result<u64, FormatError> {
         let mut x = 0u64;
         for shift in (0..64).step_by(7) {
             let [b] = self.take()?;
@@ -123,7 +124,7 @@ pub fn decode_page(
         bytes,
         at: 0,
         base,
-        page,
+        label: format!("page {page}"),
         path: cx.path,
     };
     if crc32fast::hash(bytes) != entry.crc {
@@ -168,8 +169,7 @@ pub fn decode_page(
         let offset = r.take::<3>()?.map(|o| o as i8);
         let radius = decode_scaled(r.u16()?, cx.scale);
         let center = sphere_center(position, offset, radius);
-        let [a, b, c] = r.take::<3>()?.map(u16::from);
-        let normal = oct_decode([a | (b & 0xf) << 8, b >> 4 | c << 4], NORMAL_BITS);
+        let normal = normal_of(r.take::<3>()?);
         let [a0, a1, cos] = r.take::<3>()?;
         let axis = oct_decode([a0 as u16, a1 as u16], CONE_BITS);
         let cos = cone_decode(cos);

@@ -356,8 +356,7 @@ impl<'a> PageWriter<'a> {
             let (offset, radius) = codes.spheres[k];
             out.extend(offset.map(|o| o as u8));
             out.extend_from_slice(&radius.to_le_bytes());
-            let [a, b] = oct_encode(Vec3::from_array(node.normal), NORMAL_BITS);
-            out.extend([a as u8, (a >> 8) as u8 | (b << 4) as u8, (b >> 4) as u8]);
+            out.extend(normal_bytes(Vec3::from_array(node.normal)));
             let (axis, cos) = cone_of(node);
             out.extend(axis.map(|c| c as u8));
             out.push(cos);
