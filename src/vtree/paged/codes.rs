@@ -155,6 +155,16 @@ pub(super) fn put_varint(out: &mut Vec<u8>, mut x: u64) {
     out.push(x as u8);
 }
 
+/// A triangle's corners as the pages code them: the first corner's difference from `first` (the
+/// previous triangle's first corner, which it becomes), the others' from the first, zigzagged.
+pub(super) fn put_triangle(out: &mut Vec<u8>, t: [u32; 3], first: &mut i64) {
+    let c0 = t[0] as i64;
+    put_varint(out, zigzag(c0 - *first));
+    *first = c0;
+    put_varint(out, zigzag(t[1] as i64 - c0));
+    put_varint(out, zigzag(t[2] as i64 - c0));
+}
+
 pub(super) fn zigzag(x: i64) -> u64 {
     ((x << 1) ^ (x >> 63)) as u64
 }

@@ -9,7 +9,7 @@
 //! of the last two only when the section's flags say any wedge has one. Then per triangle its
 //! corners' wedges, coded as the pages code triangles.
 
-use super::codes::{normal_bytes, normal_of, put_varint, unzigzag, zigzag};
+use super::codes::{normal_bytes, normal_of, put_triangle, put_varint, unzigzag, zigzag};
 use super::read::Reader;
 use crate::color::{srgb_to_linear, srgb8};
 use crate::vtree::format::FormatError;
@@ -55,12 +55,8 @@ pub fn encode_wedges(w: &Wedges, node_id: impl Fn(u32) -> u32) -> Vec<u8> {
         }
     }
     let mut first = 0i64;
-    for t in &w.corners {
-        let c0 = t[0] as i64;
-        put_varint(&mut out, zigzag(c0 - first));
-        first = c0;
-        put_varint(&mut out, zigzag(t[1] as i64 - c0));
-        put_varint(&mut out, zigzag(t[2] as i64 - c0));
+    for &t in &w.corners {
+        put_triangle(&mut out, t, &mut first);
     }
     out
 }

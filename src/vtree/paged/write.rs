@@ -376,12 +376,7 @@ impl<'a> PageWriter<'a> {
             let tris = tree.vanishing(u);
             put_varint(&mut out, tris.len() as u64);
             for t in tris {
-                let t = t.map(|c| self.renumber.id(c));
-                let c0 = t[0] as i64;
-                put_varint(&mut out, zigzag(c0 - first_corner));
-                first_corner = c0;
-                put_varint(&mut out, zigzag(t[1] as i64 - c0));
-                put_varint(&mut out, zigzag(t[2] as i64 - c0));
+                put_triangle(&mut out, t.map(|c| self.renumber.id(c)), &mut first_corner);
             }
         }
         out
