@@ -93,8 +93,8 @@ impl WedgeTurns {
     }
 
     /// Joins the wedges of `batch`'s merges, once every earlier batch's are, and sets each
-    /// merge's principal wedge.
-    fn join(&self, batch: &mut FinishBatch) {
+    /// merge's principal wedge (`principals`: the slots' as the pass began).
+    fn join(&self, batch: &mut FinishBatch, principals: &[LocalAttributeQuadric]) {
         let mut guard = self
             .state
             .lock()
@@ -121,6 +121,7 @@ impl WedgeTurns {
                 merged.position,
                 batch.vanished[start..end].iter().copied(),
                 batch.joined[i],
+                principals,
             );
             merged.principal = Some((quadric, texture));
             merged.slide = slide;
@@ -280,7 +281,7 @@ impl FinishBatch {
         entries: &mut Vec<Entry>,
     ) -> FinishBatch {
         if let Some(turns) = view.wedges {
-            turns.join(&mut self);
+            turns.join(&mut self, view.colors);
         }
         let mut around = Vec::new();
         let (mut fan_start, mut extra_start) = (0, 0);

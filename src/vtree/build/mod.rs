@@ -250,7 +250,7 @@ impl Builder<'_> {
         merged: &Merged,
         u: u32,
     ) -> Option<(LocalAttributeQuadric, u32, f32)> {
-        let removed = &self.removed;
+        let (removed, colors) = (&self.removed, &self.colors);
         self.wedges.as_mut().map(|w| {
             w.merge(
                 (merged.slot, merged.gone),
@@ -260,6 +260,7 @@ impl Builder<'_> {
                 removed
                     .iter()
                     .any(|&(_, v)| v == crate::simplify::collapse::Vanish::Degenerate),
+                colors,
             )
         })
     }
@@ -771,18 +772,13 @@ fn appearance_state(
         );
     };
     let scales = texture_scales(input);
-    let state = wedges::WedgeState::new(
+    let (state, colors) = wedges::WedgeState::new(
         input,
         welded,
         quadrics_of(input, &scales),
         scales.clone(),
         color_scale,
     );
-    let colors = if color_scale > 0.0 {
-        state.principal_quadrics()
-    } else {
-        Vec::new()
-    };
     let charts = state.charts();
     (colors, Some(state), charts, scales)
 }

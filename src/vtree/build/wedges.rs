@@ -106,18 +106,24 @@ pub(super) fn weld(mesh: &Mesh) -> Welded {
 }
 
 /// The wedges as a build grows them.
+///
+/// A live wedge's attribute quadric (about where its node stands) is held once: a slot's
+/// principal wedge's is the slot's, in the array pricing reads (the builder's `colors`, passed
+/// in), and only the others' are here. Most slots have one wedge, so that is most of them: on the
+/// textured dragon a copy of every principal's beside every wedge's was 54 MB more memory, which
+/// this machine pays for in time (fresh memory is cleared by the kernel as it is first touched).
 pub(super) struct WedgeState {
     /// Per triangle of the geometry, its corners' leaf wedges.
     pub corners: Vec<[u32; 3]>,
-    /// Per wedge, its attribute quadric about `at` (default, of no area, when appearance is not
-    /// weighed).
-    /// Indexed by [`WedgeState::held`]: only live wedges' are ever read, so a join's new wedge
-    /// takes over its first member's place, and these never grow past the leaf wedges (on the
-    /// textured dragon that saves 88 MB of the 1.15 million wedges' 136 bytes).
+    /// The quadrics of live wedges that are not their slot's principal (default, of no area,
+    /// when appearance is not weighed), each about `at`, with a list of places let go.
     quadric: Vec<LocalAttributeQuadric>,
     at: Vec<Vec3>,
-    /// Per wedge, the place in `quadric` and `at` that holds its own.
+    free: Vec<u32>,
+    /// Per wedge, its place in `quadric` and `at`; [`PRINCIPAL`] for a principal.
     held: Vec<u32>,
+    /// Per slot, where its node stands: what its principal's quadric is about.
+    slot_at: Vec<Vec3>,
     node: Vec<u32>,
     parent: Vec<u32>,
     /// Towards the wedge that stands for this one now (a union-find's, compressed as it is read).
@@ -142,28 +148,46 @@ pub(super) struct WedgeState {
 impl WedgeState {
     /// The leaf wedges of `mesh` (the input, one wedge a vertex) over the welded leaves `leaf`,
     /// with their attribute quadrics (`quadrics`, about each vertex; empty when appearance is not
-    /// weighed).
+    /// weighed). Returns the state and each slot's principal wedge's quadric (empty when
+    /// appearance is not weighed): what pricing reads, and what every call below is given back.
     pub fn new(
         mesh: &Mesh,
         welded: Welded,
         quadrics: Vec<LocalAttributeQuadric>,
         scales: Vec<f32>,
         color_scale: f32,
-    ) -> WedgeState {
+    ) -> (WedgeState, Vec<LocalAttributeQuadric>) {
         let count = mesh.positions.len();
         let leaves = welded.leaves;
-        let quadric = if quadrics.is_empty() {
-            vec![LocalAttributeQuadric::default(); count]
-        } else {
-            quadrics
-        };
         let mut of_slot: Vec<SmallVec<[u32; 2]>> = vec![SmallVec::new(); leaves];
         for (w, &l) in welded.leaf.iter().enumerate() {
             of_slot[l as usize].push(w as u32);
         }
+        let weight = |w: u32| quadrics.get(w as usize).map_or(0.0, |q| q.weight());
         for list in &mut of_slot {
-            principal_first(list, |w| quadric[w as usize].weight());
+            principal_first(list, weight);
         }
+        let principals: Vec<LocalAttributeQuadric> = if quadrics.is_empty() {
+            Vec::new()
+        } else {
+            of_slot
+                .iter()
+                .map(|l| {
+                    l.first()
+                        .map_or_else(Default::default, |&w| quadrics[w as usize])
+                })
+                .collect()
+        };
+        let mut held = vec![PRINCIPAL; count];
+        let (mut quadric, mut at) = (Vec::new(), Vec::new());
+        for list in &of_slot {
+            for &w in list.iter().skip(1) {
+                held[w as usize] = quadric.len() as u32;
+                quadric.push(quadrics.get(w as usize).copied().unwrap_or_default());
+                at.push(mesh.positions[w as usize]);
+            }
+        }
+        drop(quadrics);
         let texture: Vec<u32> = match &mesh.texture_of {
             Some(t) => t.clone(),
             None => vec![NO_TEXTURE; count],
@@ -172,10 +196,20 @@ impl WedgeState {
             .iter()
             .map(|l| l.first().copied().unwrap_or(NONE))
             .collect();
+        let slot_at = of_slot
+            .iter()
+            .map(|l| {
+                l.first()
+                    .map_or(Vec3::ZERO, |&w| mesh.positions[w as usize])
+            })
+            .collect();
         let mut state = WedgeState {
             corners: welded.corners,
-            at: mesh.positions.clone(),
-            held: (0..count as u32).collect(),
+            quadric,
+            at,
+            free: Vec::new(),
+            held,
+            slot_at,
             node: welded.leaf,
             parent: vec![NONE; count],
             rep: (0..count as u32).collect(),
@@ -200,14 +234,13 @@ impl WedgeState {
                 .tints
                 .as_ref()
                 .map_or_else(Vec::new, |t| t.iter().map(|c| c.to_array()).collect()),
-            quadric,
             of_slot,
             scales,
             first,
             color_scale,
         };
         state.reserve(leaves + leaves / 2);
-        state
+        (state, principals)
     }
 
     /// Room for `more` wedges in every per-wedge array: the merges add about 1.3 a node (1.29 on
@@ -225,17 +258,6 @@ impl WedgeState {
         self.normal.reserve_exact(more);
     }
 
-    /// The principal wedge's quadric of each slot, as pricing reads it.
-    pub fn principal_quadrics(&self) -> Vec<LocalAttributeQuadric> {
-        self.of_slot
-            .iter()
-            .map(|l| {
-                l.first()
-                    .map_or_else(Default::default, |&w| *self.quadric_of(w))
-            })
-            .collect()
-    }
-
     /// Each slot's principal wedge's texture, as pricing reads it.
     pub fn charts(&self) -> Vec<u32> {
         self.of_slot
@@ -245,20 +267,29 @@ impl WedgeState {
     }
 
     /// Asks for what merging slots `a` and `b` will read, in the stages of
-    /// `Builder::prefetch_merge`: their lists of wedges, then those wedges' data. Only a hint.
+    /// `Builder::prefetch_merge`: their lists of wedges, then those wedges' data (a principal's
+    /// quadric is pricing's, which asks for it itself). Only a hint.
     pub fn prefetch_merge(&self, a: u32, b: u32, stage: u32) {
         for s in [a as usize, b as usize] {
             if stage == 1 {
                 crate::prefetch(&self.of_slot[s]);
+                crate::prefetch(&self.slot_at[s]);
             } else if stage == 2 {
                 for &w in self.of_slot[s].iter().take(4) {
-                    let q = self.quadric_of(w) as *const LocalAttributeQuadric as usize;
-                    // Every cache line of the quadric (124 bytes may span three).
-                    for line in (q..q + std::mem::size_of::<LocalAttributeQuadric>()).step_by(64) {
-                        crate::prefetch_address(line);
+                    let place = self.held[w as usize] as usize;
+                    if let Some(q) = self.quadric.get(place) {
+                        let q = q as *const LocalAttributeQuadric as usize;
+                        // Every cache line of the quadric (124 bytes may span three).
+                        for line in
+                            (q..q + std::mem::size_of::<LocalAttributeQuadric>()).step_by(64)
+                        {
+                            crate::prefetch_address(line);
+                        }
+                        crate::prefetch_address(
+                            q + std::mem::size_of::<LocalAttributeQuadric>() - 1,
+                        );
+                        crate::prefetch(&self.at[place]);
                     }
-                    crate::prefetch_address(q + std::mem::size_of::<LocalAttributeQuadric>() - 1);
-                    crate::prefetch(&self.at[self.held[w as usize] as usize]);
                     let w = w as usize;
                     crate::prefetch(&self.texture[w]);
                     crate::prefetch(&self.uv[w]);
@@ -290,7 +321,9 @@ impl WedgeState {
     /// `joined`: a triangle that vanished had corners at both (a degenerate one). When each slot
     /// has one wedge, that alone says whether they join, without following the triangles' leaf
     /// wedges through the union-find (a walk of cache misses: 5 % of the textured dragon's
-    /// build).
+    /// build). `principals`: each slot's principal's quadric as it was before this merge (see
+    /// [`WedgeState`]); the new principal's, returned, is the caller's to store for slot `a`.
+    #[allow(clippy::too_many_arguments)]
     pub fn merge(
         &mut self,
         (a, b): (u32, u32),
@@ -298,10 +331,15 @@ impl WedgeState {
         position: Vec3,
         vanished: impl Iterator<Item = u32>,
         joined: bool,
+        principals: &[LocalAttributeQuadric],
     ) -> (LocalAttributeQuadric, u32, f32) {
         let wa = std::mem::take(&mut self.of_slot[a as usize]);
         let wb = std::mem::take(&mut self.of_slot[b as usize]);
-        let all: SmallVec<[u32; 4]> = wa.iter().chain(&wb).copied().collect();
+        // Each wedge with its slot: where its quadric is.
+        let all: SmallVec<[(u32, u32); 4]> = (wa.iter().map(|&w| (w, a)))
+            .chain(wb.iter().map(|&w| (w, b)))
+            .collect();
+
         // A union-find over `all`'s indices.
         let mut group: SmallVec<[usize; 4]> = (0..all.len()).collect();
         if wa.len() == 1 && wb.len() == 1 {
@@ -311,45 +349,94 @@ impl WedgeState {
         } else {
             self.join_by_triangles(&wa, &wb, &mut group, vanished);
         }
+        let held = Held {
+            state: self,
+            principals,
+        };
         // Wedges of one chart whose maps agree at the merged place are one wedge now, whether a
         // triangle joined them or not (a merge across a gap inside a chart): kept apart, the
         // lists of wedges would grow with every such merge up the tree.
         if wa.len() * wb.len() <= ATTRIBUTE_JOINS {
-            for (i, &x) in wa.iter().enumerate() {
-                for (j, &y) in wb.iter().enumerate() {
-                    let (ri, rj) = (root(&group, i), root(&group, wa.len() + j));
-                    if ri != rj && self.agree(x, y, position) {
+            for i in 0..wa.len() {
+                for j in wa.len()..all.len() {
+                    let (ri, rj) = (root(&group, i), root(&group, j));
+                    if ri != rj && held.agree(all[i], all[j], position) {
                         group[ri.max(rj)] = ri.min(rj);
                     }
                 }
             }
         }
         // The groups, each a run of `all`'s indices sorted by their root.
-        let mut order: SmallVec<[(usize, u32); 4]> =
+        let mut order: SmallVec<[(usize, (u32, u32)); 4]> =
             (0..all.len()).map(|i| (root(&group, i), all[i])).collect();
         order.sort_unstable();
         let p = position.as_dvec3();
-        let mut made: SmallVec<[u32; 2]> = SmallVec::new();
-        let mut members: SmallVec<[u32; 4]> = SmallVec::new();
-        let mut slide = 0f32;
+        let mut joins: SmallVec<[Join; 2]> = SmallVec::new();
+        let mut members: SmallVec<[(u32, u32); 4]> = SmallVec::new();
         for (k, &(r, w)) in order.iter().enumerate() {
             members.push(w);
             if order.get(k + 1).is_none_or(|&(next, _)| next != r) {
-                let (joined, moved) = self.join(&members, u, position, p);
-                made.push(joined);
-                slide = slide.max(moved);
+                joins.push(held.join(&members, p));
                 members.clear();
             }
         }
-        principal_first(&mut made, |w| self.weight(w));
+        // The members' quadrics are read; their places go free for the new wedges'.
+        for &(w, _) in &all {
+            let place = self.held[w as usize];
+            if place != PRINCIPAL {
+                self.free.push(place);
+            }
+        }
+        let slide = joins.iter().map(|j| j.slide).fold(0f32, f32::max);
+        let mut made: SmallVec<[u32; 2]> = joins.iter().map(|j| self.push(j, u)).collect();
+        // The new wedges are numbered in the order of `joins`.
+        let first = made[0];
+        principal_first(&mut made, |w| joins[(w - first) as usize].quadric.weight());
         let principal = made[0];
+        let quadric = joins[(principal - first) as usize].quadric;
+        for &w in &made[1..] {
+            let j = &joins[(w - first) as usize];
+            let place = match self.free.pop() {
+                Some(place) => {
+                    self.quadric[place as usize] = j.quadric;
+                    self.at[place as usize] = position;
+                    place
+                }
+                None => {
+                    self.quadric.push(j.quadric);
+                    self.at.push(position);
+                    self.quadric.len() as u32 - 1
+                }
+            };
+            self.held[w as usize] = place;
+        }
+        self.slot_at[a as usize] = position;
         self.first.push(principal);
         self.of_slot[a as usize] = made;
-        (
-            *self.quadric_of(principal),
-            self.texture[principal as usize],
-            slide,
-        )
+        (quadric, self.texture[principal as usize], slide)
+    }
+
+    /// Records the wedge that `j` makes at node `u` (its quadric's place is the caller's to
+    /// set): its attributes, and its members' parent.
+    fn push(&mut self, j: &Join, u: u32) -> u32 {
+        let w = self.node.len() as u32;
+        self.held.push(PRINCIPAL);
+        self.node.push(u);
+        self.parent.push(NONE);
+        self.rep.push(w);
+        self.texture.push(j.texture);
+        self.material.push(j.material);
+        self.uv.push(j.uv.to_array());
+        self.color.push(j.color.to_array());
+        if let Some(tint) = j.tint {
+            self.tint.push(tint.to_array());
+        }
+        self.normal.push(j.normal.normalize_or_zero().to_array());
+        for &m in &j.members {
+            self.parent[m as usize] = w;
+            self.rep[m as usize] = w;
+        }
+        w
     }
 
     /// Joins, in `group` (a union-find over `wa` then `wb`), the wedges at the two merging
@@ -370,140 +457,6 @@ impl WedgeState {
                 group[ri.max(rj)] = ri.min(rj);
             }
         }
-    }
-
-    /// Whether wedges `x` and `y` show one texture and material, normals on one side of a crease,
-    /// and their quadrics' best
-    /// coordinates at `position` lie within a chart's reach of each other (their stored ones,
-    /// without quadrics).
-    fn agree(&self, x: u32, y: u32, position: Vec3) -> bool {
-        let (x, y) = (x as usize, y as usize);
-        let texture = self.texture[x];
-        if texture != self.texture[y] || self.material[x] != self.material[y] {
-            return false;
-        }
-        // A crease's sides keep their own normals (no normals: nothing to keep).
-        let (nx, ny) = (
-            Vec3::from_array(self.normal[x]),
-            Vec3::from_array(self.normal[y]),
-        );
-        if nx != Vec3::ZERO && ny != Vec3::ZERO && nx.dot(ny) < CREASE_COS {
-            return false;
-        }
-        let p = position.as_dvec3();
-        let at = |w: usize| {
-            self.quadric_of(w as u32)
-                .texture_at(p - self.at_of(w as u32).as_dvec3())
-        };
-        match (at(x), at(y)) {
-            (Some(tx), Some(ty)) => {
-                let scale = self.scales.get(texture as usize).copied().unwrap_or(0.0) as f64;
-                tx.distance(ty) <= scale * CHART_UV_DISTANCE as f64
-            }
-            _ => {
-                Vec2::from_array(self.uv[x]).distance(Vec2::from_array(self.uv[y]))
-                    <= CHART_UV_DISTANCE
-            }
-        }
-    }
-
-    /// A new wedge of node `u` at `position`, joining `members`, and how far it slides their
-    /// texture (see [`WedgeState::merge`]).
-    fn join(&mut self, members: &[u32], u: u32, position: Vec3, p: DVec3) -> (u32, f32) {
-        let mut sum = self.quadric_of(members[0]).about(self.at_of(members[0]), p);
-        for &m in &members[1..] {
-            sum += self.quadric_of(m).about(self.at_of(m), p);
-        }
-        let q = LocalAttributeQuadric::new(&sum);
-        let heaviest = *members
-            .iter()
-            .max_by(|x, y| {
-                let (wx, wy) = (self.weight(**x), self.weight(**y));
-                wx.total_cmp(&wy).then(y.cmp(x))
-            })
-            .unwrap_or(&members[0]);
-        let texture = self.texture[heaviest as usize];
-        let total: f64 = members.iter().map(|&m| self.weight(m)).sum();
-        let share = |m: u32| {
-            if total > 0.0 {
-                (self.weight(m) / total) as f32
-            } else {
-                1.0 / members.len() as f32
-            }
-        };
-        let mean_uv: Vec2 = members
-            .iter()
-            .map(|&m| Vec2::from_array(self.uv[m as usize]) * share(m))
-            .sum();
-        let one_texture = members.iter().all(|&m| self.texture[m as usize] == texture);
-        let scale = self.scales.get(texture as usize).copied().unwrap_or(0.0);
-        let uv = match q.best_texture() {
-            Some(t) if one_texture && scale > 0.0 => Some(t / scale).filter(|t| t.is_finite()),
-            _ => None,
-        }
-        .unwrap_or(mean_uv);
-        let slide = if one_texture && scale > 0.0 {
-            members
-                .iter()
-                .filter_map(|&m| {
-                    let mapped = q.texture_at(self.at_of(m).as_dvec3() - p)?;
-                    let own = Vec2::from_array(self.uv[m as usize]).as_dvec2() * scale as f64;
-                    Some(mapped.distance(own) as f32)
-                })
-                .filter(|d| d.is_finite())
-                .fold(0f32, f32::max)
-        } else {
-            0.0
-        };
-        let mean_color: Vec3 = members
-            .iter()
-            .map(|&m| Vec3::from_array(self.color[m as usize]) * share(m))
-            .sum();
-        let scale = super::color_scale_of(self.color_scale, texture != NO_TEXTURE);
-        let color = q.best_color(scale as f64).unwrap_or(mean_color);
-        let normal: Vec3 = members
-            .iter()
-            .map(|&m| Vec3::from_array(self.normal[m as usize]) * share(m))
-            .sum();
-        let tint = (!self.tint.is_empty()).then(|| {
-            members
-                .iter()
-                .map(|&m| Vec3::from_array(self.tint[m as usize]) * share(m))
-                .sum::<Vec3>()
-        });
-        let w = self.node.len() as u32;
-        let place = self.held[members[0] as usize];
-        self.quadric[place as usize] = q;
-        self.at[place as usize] = position;
-        self.held.push(place);
-        self.node.push(u);
-        self.parent.push(NONE);
-        self.rep.push(w);
-        self.texture.push(texture);
-        self.material.push(self.material[heaviest as usize]);
-        self.uv.push(uv.to_array());
-        self.color.push(color.to_array());
-        if let Some(tint) = tint {
-            self.tint.push(tint.to_array());
-        }
-        self.normal.push(normal.normalize_or_zero().to_array());
-        for &m in members {
-            self.parent[m as usize] = w;
-            self.rep[m as usize] = w;
-        }
-        (w, slide)
-    }
-
-    fn weight(&self, w: u32) -> f64 {
-        self.quadric_of(w).weight()
-    }
-
-    fn quadric_of(&self, w: u32) -> &LocalAttributeQuadric {
-        &self.quadric[self.held[w as usize] as usize]
-    }
-
-    fn at_of(&self, w: u32) -> Vec3 {
-        self.at[self.held[w as usize] as usize]
     }
 
     /// Each node's first wedge (leaves, then internal nodes in order).
@@ -528,7 +481,156 @@ impl WedgeState {
     }
 }
 
-/// A merge compares each wedge of one side with each of the other for [`WedgeState::agree`] when
+/// Marks a wedge whose quadric is its slot's principal's (see [`WedgeState`]).
+const PRINCIPAL: u32 = u32::MAX;
+
+/// A wedge's quadric of no area: what every wedge has when appearance is not weighed.
+static NO_QUADRIC: std::sync::LazyLock<LocalAttributeQuadric> =
+    std::sync::LazyLock::new(LocalAttributeQuadric::default);
+
+/// What a merge reads of the wedges before it changes any: the state, and the slots' principal
+/// quadrics. Wedges come with their slots, `(wedge, slot)`.
+struct Held<'a> {
+    state: &'a WedgeState,
+    principals: &'a [LocalAttributeQuadric],
+}
+
+/// A wedge a merge makes, before it is recorded: its members (wedges) and what they make.
+struct Join {
+    members: SmallVec<[u32; 4]>,
+    quadric: LocalAttributeQuadric,
+    texture: u32,
+    material: u32,
+    uv: Vec2,
+    color: Vec3,
+    normal: Vec3,
+    tint: Option<Vec3>,
+    /// How far it slides its members' texture (see [`WedgeState::merge`]).
+    slide: f32,
+}
+
+impl Held<'_> {
+    /// A wedge's quadric, and where it is about.
+    fn quadric_of(&self, (w, slot): (u32, u32)) -> (&LocalAttributeQuadric, Vec3) {
+        let s = self.state;
+        match s.held[w as usize] {
+            PRINCIPAL => (
+                self.principals.get(slot as usize).unwrap_or(&NO_QUADRIC),
+                s.slot_at[slot as usize],
+            ),
+            place => (&s.quadric[place as usize], s.at[place as usize]),
+        }
+    }
+
+    fn weight(&self, w: (u32, u32)) -> f64 {
+        self.quadric_of(w).0.weight()
+    }
+
+    /// Whether wedges `x` and `y` show one texture and material, normals on one side of a
+    /// crease, and their quadrics' best coordinates at `position` lie within a chart's reach of
+    /// each other (their stored ones, without quadrics).
+    fn agree(&self, x: (u32, u32), y: (u32, u32), position: Vec3) -> bool {
+        let s = self.state;
+        let (i, j) = (x.0 as usize, y.0 as usize);
+        let texture = s.texture[i];
+        if texture != s.texture[j] || s.material[i] != s.material[j] {
+            return false;
+        }
+        // A crease's sides keep their own normals (no normals: nothing to keep).
+        let (ni, nj) = (Vec3::from_array(s.normal[i]), Vec3::from_array(s.normal[j]));
+        if ni != Vec3::ZERO && nj != Vec3::ZERO && ni.dot(nj) < CREASE_COS {
+            return false;
+        }
+        let p = position.as_dvec3();
+        let at = |w: (u32, u32)| {
+            let (q, at) = self.quadric_of(w);
+            q.texture_at(p - at.as_dvec3())
+        };
+        match (at(x), at(y)) {
+            (Some(tx), Some(ty)) => {
+                let scale = s.scales.get(texture as usize).copied().unwrap_or(0.0) as f64;
+                tx.distance(ty) <= scale * CHART_UV_DISTANCE as f64
+            }
+            _ => Vec2::from_array(s.uv[i]).distance(Vec2::from_array(s.uv[j])) <= CHART_UV_DISTANCE,
+        }
+    }
+
+    /// The wedge at `position` joining `members`, and how far it slides their texture (see
+    /// [`WedgeState::merge`]).
+    fn join(&self, members: &[(u32, u32)], p: DVec3) -> Join {
+        let s = self.state;
+        let mut sum = {
+            let (q, at) = self.quadric_of(members[0]);
+            q.about(at, p)
+        };
+        for &m in &members[1..] {
+            let (q, at) = self.quadric_of(m);
+            sum += q.about(at, p);
+        }
+        let q = LocalAttributeQuadric::new(&sum);
+        let heaviest = *members
+            .iter()
+            .max_by(|x, y| {
+                let (wx, wy) = (self.weight(**x), self.weight(**y));
+                wx.total_cmp(&wy).then(y.0.cmp(&x.0))
+            })
+            .unwrap_or(&members[0]);
+        let heaviest = heaviest.0 as usize;
+        let texture = s.texture[heaviest];
+        let total: f64 = members.iter().map(|&m| self.weight(m)).sum();
+        let share = |m: (u32, u32)| {
+            if total > 0.0 {
+                (self.weight(m) / total) as f32
+            } else {
+                1.0 / members.len() as f32
+            }
+        };
+        let mean = |values: &[[f32; 3]]| -> Vec3 {
+            members
+                .iter()
+                .map(|&m| Vec3::from_array(values[m.0 as usize]) * share(m))
+                .sum()
+        };
+        let mean_uv: Vec2 = members
+            .iter()
+            .map(|&m| Vec2::from_array(s.uv[m.0 as usize]) * share(m))
+            .sum();
+        let one_texture = members.iter().all(|&m| s.texture[m.0 as usize] == texture);
+        let scale = s.scales.get(texture as usize).copied().unwrap_or(0.0);
+        let uv = match q.best_texture() {
+            Some(t) if one_texture && scale > 0.0 => Some(t / scale).filter(|t| t.is_finite()),
+            _ => None,
+        }
+        .unwrap_or(mean_uv);
+        let slide = if one_texture && scale > 0.0 {
+            members
+                .iter()
+                .filter_map(|&m| {
+                    let mapped = q.texture_at(self.quadric_of(m).1.as_dvec3() - p)?;
+                    let own = Vec2::from_array(s.uv[m.0 as usize]).as_dvec2() * scale as f64;
+                    Some(mapped.distance(own) as f32)
+                })
+                .filter(|d| d.is_finite())
+                .fold(0f32, f32::max)
+        } else {
+            0.0
+        };
+        let color_scale = super::color_scale_of(s.color_scale, texture != NO_TEXTURE);
+        Join {
+            members: members.iter().map(|m| m.0).collect(),
+            color: q.best_color(color_scale as f64).unwrap_or(mean(&s.color)),
+            quadric: q,
+            texture,
+            material: s.material[heaviest],
+            uv,
+            normal: mean(&s.normal),
+            tint: (!s.tint.is_empty()).then(|| mean(&s.tint)),
+            slide,
+        }
+    }
+}
+
+/// A merge compares each wedge of one side with each of the other for [`Held::agree`] when
 /// there are at most this many pairs (lists stay short where it runs; a node of many charts
 /// costs no quadratic time).
 const ATTRIBUTE_JOINS: usize = 64;
@@ -676,10 +778,16 @@ mod tests {
         let welded = weld(&mesh);
         let scales = super::super::texture_scales(&mesh);
         let quadrics = super::super::attribute_quadrics(&mesh, &[Vec3::ONE; 8], 1.0, &scales);
-        let mut state = WedgeState::new(&mesh, welded, quadrics, scales, 1.0);
+        let (mut state, principals) = WedgeState::new(&mesh, welded, quadrics, scales, 1.0);
         // Triangle 2 = [1, 2, 6] holds the edge 1–2 and vanishes.
-        let (_, _, slide) =
-            state.merge((1, 2), 8, Vec3::new(1.5, 0.0, 0.0), [2].into_iter(), false);
+        let (_, _, slide) = state.merge(
+            (1, 2),
+            8,
+            Vec3::new(1.5, 0.0, 0.0),
+            [2].into_iter(),
+            false,
+            &principals,
+        );
         slide
     }
 
