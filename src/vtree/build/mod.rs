@@ -548,6 +548,7 @@ fn build_unit(
     }
     let mut welded = wedges::weld(mesh);
     let geometry = std::mem::take(&mut welded.geometry);
+    crate::memory::trace_phase("welding");
     build_geometry(&geometry, Some((mesh, welded)), options, progress)
 }
 
@@ -621,6 +622,7 @@ fn build_geometry(
     let input = source.as_ref().map(|(m, _)| *m);
     let (colors, wedges, charts, scales) = appearance_state(mesh, source, color_scale);
     drop((quadrics, vertex_weight));
+    crate::memory::trace_phase("the leaves");
 
     // 3-5. Merge until one vertex is left.
     let mut vanish_offsets = Vec::with_capacity(n);
@@ -665,6 +667,7 @@ fn build_geometry(
     initial.extend(builder.price_pairs(&close, false));
     drop(close);
     builder.stats.phases.pricing += clock.elapsed().as_secs_f64();
+    crate::memory::trace_phase("pricing every pair");
     let mut radius = options.pair_distance.max(1e-3) * diagonal;
     match options.schedule {
         Schedule::Passes => {
@@ -675,8 +678,10 @@ fn build_geometry(
         }
     }
     progress(n - 1, n - 1);
+    crate::memory::trace_phase("merging");
 
     let (tree, mut stats) = builder.into_tree(options, input);
+    crate::memory::trace_phase("the tree");
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((tree, stats))
 }
