@@ -339,7 +339,6 @@ impl WedgeState {
         let all: SmallVec<[(u32, u32); 4]> = (wa.iter().map(|&w| (w, a)))
             .chain(wb.iter().map(|&w| (w, b)))
             .collect();
-
         // A union-find over `all`'s indices.
         let mut group: SmallVec<[usize; 4]> = (0..all.len()).collect();
         if wa.len() == 1 && wb.len() == 1 {
@@ -395,25 +394,30 @@ impl WedgeState {
         let principal = made[0];
         let quadric = joins[(principal - first) as usize].quadric;
         for &w in &made[1..] {
-            let j = &joins[(w - first) as usize];
-            let place = match self.free.pop() {
-                Some(place) => {
-                    self.quadric[place as usize] = j.quadric;
-                    self.at[place as usize] = position;
-                    place
-                }
-                None => {
-                    self.quadric.push(j.quadric);
-                    self.at.push(position);
-                    self.quadric.len() as u32 - 1
-                }
-            };
-            self.held[w as usize] = place;
+            self.hold(w, joins[(w - first) as usize].quadric, position);
         }
         self.slot_at[a as usize] = position;
         self.first.push(principal);
         self.of_slot[a as usize] = made;
         (quadric, self.texture[principal as usize], slide)
+    }
+
+    /// Keeps the quadric `q` (about `position`) of wedge `w`, not its slot's principal, in a
+    /// place let go or a new one.
+    fn hold(&mut self, w: u32, q: LocalAttributeQuadric, position: Vec3) {
+        let place = match self.free.pop() {
+            Some(place) => {
+                self.quadric[place as usize] = q;
+                self.at[place as usize] = position;
+                place
+            }
+            None => {
+                self.quadric.push(q);
+                self.at.push(position);
+                self.quadric.len() as u32 - 1
+            }
+        };
+        self.held[w as usize] = place;
     }
 
     /// Records the wedge that `j` makes at node `u` (its quadric's place is the caller's to
