@@ -202,7 +202,7 @@ fn write_to(
         tags.push(OPTIONAL[2]);
     }
     let wedg = tree.wedges.as_ref().map(|w| match &in_file {
-        Some(f) => super::paged::encode_wedges(w, |u| f.id(u)),
+        Some(f) => super::paged::encode_wedges(w, |u| f.ids.id(u)),
         None => wedge_section(w),
     });
     if let Some(w) = &wedg {
@@ -280,11 +280,10 @@ fn wedge_section(w: &super::Wedges) -> Vec<u8> {
     out
 }
 
-/// A paged file's numbering of a tree's nodes: its leaves depth-first (see
-/// [`super::paged::depth_first_leaves`]), its internal nodes as they are.
+/// A paged file's numbering of a tree's nodes (see [`super::paged::FileIds`]), with the tree's
+/// leaf at each of the file's leaf ids: what writing per-node arrays in the file's order reads.
 struct FileOrder<'a> {
-    leaf_id: &'a [u32],
-    /// The tree's leaf at each leaf id of the file.
+    ids: super::paged::FileIds<'a>,
     leaf_at: Vec<u32>,
 }
 
@@ -294,12 +293,10 @@ impl FileOrder<'_> {
         for (u, &id) in leaf_id.iter().enumerate() {
             leaf_at[id as usize] = u as u32;
         }
-        FileOrder { leaf_id, leaf_at }
-    }
-
-    /// Node `u`'s id in the file.
-    fn id(&self, u: u32) -> u32 {
-        self.leaf_id.get(u as usize).copied().unwrap_or(u)
+        FileOrder {
+            ids: super::paged::FileIds { leaf_id },
+            leaf_at,
+        }
     }
 
     /// The tree's node at id `n` of the file.

@@ -232,6 +232,19 @@ pub fn depth_first_leaves(
     (at, ranges)
 }
 
+/// A paged file's id of each node of a tree: a leaf's depth-first (by [`Encoded::leaf_id`]), an
+/// internal node's its own.
+#[derive(Clone, Copy)]
+pub struct FileIds<'a> {
+    pub leaf_id: &'a [u32],
+}
+
+impl FileIds<'_> {
+    pub fn id(&self, u: u32) -> u32 {
+        self.leaf_id.get(u as usize).copied().unwrap_or(u)
+    }
+}
+
 /// Whether any node's colour differs from white as stored (a build blends white into
 /// not-quite-white, which the pages need not store).
 pub fn any_color(tree: &VertexTree) -> bool {

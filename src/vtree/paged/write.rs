@@ -1,7 +1,7 @@
 //! Writing pages: [`encode`] cuts a tree into pages and codes each on its own.
 
 use super::codes::*;
-use super::{DIRECTORY_ENTRY, Encoded, PageEntry, Pages, depth_first_leaves, paginate};
+use super::{DIRECTORY_ENTRY, Encoded, FileIds, PageEntry, Pages, depth_first_leaves, paginate};
 use crate::color::srgb8;
 use crate::vtree::{NONE, Node, VertexTree};
 use glam::Vec3;
@@ -23,10 +23,7 @@ pub fn encode(
     let (leaf_id, leaves) = depth_first_leaves(tree, &page_of, &roots);
     let n = tree.nodes.len();
     let scale = scale_for(tree.diagonal());
-    let renumber = Renumber {
-        leaf_id: &leaf_id,
-        leaf_count: tree.leaf_count,
-    };
+    let renumber = FileIds { leaf_id: &leaf_id };
     // Each page's nodes by their ids in the file (leaves first, in depth-first order).
     let mut members: Vec<Vec<u32>> = vec![Vec::new(); roots.len()];
     for u in 0..n as u32 {
@@ -106,23 +103,6 @@ pub fn encode(
     })
 }
 
-/// A node's id in the file: a leaf's depth-first, an internal node's its own.
-#[derive(Clone, Copy)]
-struct Renumber<'a> {
-    leaf_id: &'a [u32],
-    leaf_count: u32,
-}
-
-impl Renumber<'_> {
-    fn id(&self, u: u32) -> u32 {
-        if u < self.leaf_count {
-            self.leaf_id[u as usize]
-        } else {
-            u
-        }
-    }
-}
-
 /// Bytes of the directory before its entries: page count (u32), scale (f32), position error (f32).
 pub const DIRECTORY_HEAD: usize = 12;
 
@@ -134,7 +114,7 @@ struct PageWriter<'a> {
     file_ids: Vec<u32>,
     page: u32,
     page_of: &'a [u32],
-    renumber: Renumber<'a>,
+    renumber: FileIds<'a>,
     /// The page's grid, over its nodes' positions.
     grid: Grid,
     scale: f32,
@@ -205,7 +185,7 @@ impl<'a> PageWriter<'a> {
         ids: &'a [u32],
         page: u32,
         page_of: &'a [u32],
-        renumber: Renumber<'a>,
+        renumber: FileIds<'a>,
         scale: f32,
         colors: bool,
     ) -> PageWriter<'a> {
