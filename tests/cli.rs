@@ -109,6 +109,7 @@ fn build_writes_paged_files_unless_exact() {
         serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap()
     };
     let (ip, ie) = (info(p), info(e));
+    assert_eq!((&ip["version"], &ie["version"]), (&5.into(), &1.into()));
     let triangles = 13546.0;
     let per_triangle = |i: &serde_json::Value| i["file_bytes"].as_f64().unwrap() / triangles;
     assert!(per_triangle(&ip) <= 32.0, "{}", per_triangle(&ip));
@@ -118,6 +119,20 @@ fn build_writes_paged_files_unless_exact() {
     assert_eq!(ie["position_error"], 0.0);
     let text = ok(&vunify(&["info", p]));
     assert!(text.contains("stored     paged"), "{text}");
+    assert!(
+        text.contains("format     version 5: leaves numbered depth-first"),
+        "{text}"
+    );
+    // A version 4 file (before leaves were numbered depth-first) reads, and says so.
+    let v4 = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/cessna-v4.vtree"
+    );
+    let text = ok(&vunify(&["info", v4]));
+    assert!(
+        text.contains("format     version 4: leaves in the input's order"),
+        "{text}"
+    );
     let level = |t: &str, name: &str| {
         let out = tmp(name);
         ok(&vunify(&[

@@ -100,6 +100,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     };
     let tree = facts.tree.as_ref();
     let file_bytes = std::fs::metadata(&file).map_or(0, |m| m.len());
+    let version = format_version(&file)?;
     let textures = tree
         .and_then(|t| t.appearance.as_ref())
         .map_or(0, |a| a.textures.len());
@@ -116,7 +117,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
             "materials": materials, "wedges": wedges.map(|w| w.len()),
             "leaf_wedges": wedges.map(|w| w.node.iter().filter(|&&u| u < facts.leaves).count()),
             "root_error": facts.root_error, "diagonal": facts.diagonal, "checked": check,
-            "position_error": facts.position_error, "file_bytes": file_bytes,
+            "position_error": facts.position_error, "file_bytes": file_bytes, "version": version,
         });
         println!("{}", serde_json::to_string_pretty(&j)?);
         return Ok(());
@@ -141,6 +142,14 @@ pub fn run(args: InfoArgs) -> Result<()> {
     } else {
         println!("stored     exact, {per_triangle:.1} bytes a triangle");
     }
+    println!(
+        "format     version {version}{}",
+        match version {
+            5.. => ": leaves numbered depth-first, each page knows the leaves under its nodes",
+            4 => ": leaves in the input's order (rebuild with `vunify build` for version 5)",
+            _ => "",
+        }
+    );
     println!(
         "attributes colours: {}, normals: {}",
         facts.colors, facts.normals
@@ -190,4 +199,12 @@ pub fn run(args: InfoArgs) -> Result<()> {
         println!("check      every cut of the build order is a valid mesh");
     }
     Ok(())
+}
+
+/// The file's format version, from its header (the reader has checked it).
+fn format_version(file: &std::path::Path) -> Result<u32> {
+    use std::io::Read;
+    let mut head = [0u8; 12];
+    std::fs::File::open(file)?.read_exact(&mut head)?;
+    Ok(u32::from_le_bytes([head[8], head[9], head[10], head[11]]))
 }
