@@ -505,7 +505,7 @@ fn read_wedges(
     })
 }
 
-/// The pages of a paged (version 4) file: each page's root and nodes, in file order; an empty
+/// The pages of a paged (version 4 or 5) file: each page's root and nodes, in file order; an empty
 /// list for an exact file. Each page is decoded and checked as [`read_bytes`] does.
 pub fn read_pages(bytes: &[u8], path: &Path) -> Result<Vec<super::PageNodes>, FormatError> {
     let fail = Fail { path };

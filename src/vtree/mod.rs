@@ -110,7 +110,7 @@ pub struct VertexTree {
     pub wedges: Option<Wedges>,
     /// How far any stored position may lie from where the builder put it: 0 for a tree as built
     /// or read from an exact file, the quantisation's bound for one read from a paged file
-    /// (version 4). Every error and sphere already holds it; [`VertexTree::deviation_bounds`]
+    /// (versions 4 and 5). Every error and sphere already holds it; [`VertexTree::deviation_bounds`]
     /// adds it.
     pub position_error: f32,
 }
