@@ -87,6 +87,17 @@ impl Reader<'_> {
     pub(super) fn f32(&mut self) -> Result<f32, FormatError> {
         Ok(f32::from_le_bytes(self.take()?))
     }
+    /// A triangle's corners as [`put_triangle`] codes them, `first` the previous triangle's
+    /// first corner (this one's, after). Sums wrap: a damaged number gives a corner out of
+    /// range, which the caller refuses, never an overflow.
+    pub(super) fn triangle(&mut self, first: &mut i64) -> Result<[i64; 3], FormatError> {
+        let c0 = first.wrapping_add(unzigzag(self.varint()?));
+        *first = c0;
+        let c1 = c0.wrapping_add(unzigzag(self.varint()?));
+        let c2 = c0.wrapping_add(unzigzag(self.varint()?));
+        Ok([c0, c1, c2])
+    }
+
     pub(super) fn varint(&mut self) -> Result<u64, FormatError> {
         let mut x = 0u64;
         for shift in (0..64).step_by(7) {
@@ -197,11 +208,7 @@ pub fn decode_page(
             }
             out.counts.push(tris as u32);
             for _ in 0..tris {
-                let c0 = first_corner + unzigzag(r.varint()?);
-                first_corner = c0;
-                let c1 = c0 + unzigzag(r.varint()?);
-                let c2 = c0 + unzigzag(r.varint()?);
-                let t = [c0, c1, c2];
+                let t = r.triangle(&mut first_corner)?;
                 if t.iter().any(|&c| c < 0 || c >= cx.leaf_count as i64) {
                     return Err(r.fail(&format!("triangle {t:?} names a leaf out of range")));
                 }

@@ -96,7 +96,8 @@ pub fn decode_wedges(
     };
     let mut node = 0i64;
     for k in 0..count {
-        node += unzigzag(r.varint()?);
+        // Wrapping: a damaged difference gives a node out of range, refused below.
+        node = node.wrapping_add(unzigzag(r.varint()?));
         let parent = match r.varint()? {
             0 => Some(NONE),
             up => (k as i64)
@@ -137,9 +138,7 @@ pub fn decode_wedges(
     w.corners.reserve_exact(triangles as usize);
     let mut first = 0i64;
     for f in 0..triangles {
-        let c0 = first + unzigzag(r.varint()?);
-        first = c0;
-        let c = [c0, c0 + unzigzag(r.varint()?), c0 + unzigzag(r.varint()?)];
+        let c = r.triangle(&mut first)?;
         if c.iter().any(|&c| c < 0 || c >= count as i64) {
             return Err(r.fail(&format!("triangle {f}'s corners {c:?} are no wedges")));
         }
@@ -152,4 +151,30 @@ pub fn decode_wedges(
         )));
     }
     Ok(w)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two wedges, then a triangle whose second corner's difference is the largest a varint
+    /// holds: summed without wrapping it would overflow (a panic where overflow is checked); it
+    /// is a corner out of range, refused.
+    #[test]
+    fn a_corner_past_any_number_is_an_error() {
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(&2u32.to_le_bytes());
+        bytes.extend_from_slice(&0u32.to_le_bytes());
+        for _ in 0..2 {
+            // Node +0, no parent, uv (0, 0), no texture, material 0.
+            bytes.extend([0, 0]);
+            bytes.extend([0; 8]);
+            bytes.extend([0, 0]);
+        }
+        put_varint(&mut bytes, zigzag(1));
+        put_varint(&mut bytes, u64::MAX - 1);
+        put_varint(&mut bytes, 0);
+        let error = decode_wedges(&bytes, 0, 1, Path::new("w.vtree")).unwrap_err();
+        assert!(error.to_string().contains("are no wedges"), "{error}");
+    }
 }
