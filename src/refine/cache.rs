@@ -178,18 +178,32 @@ impl PageCache {
     /// ones go while the cache is over its budget (not those that just arrived), and returns the
     /// errors of pages that could not be read (each once).
     pub fn receive(&mut self) -> Vec<(u32, FormatError)> {
+        self.receive_keeping(&|_| false)
+    }
+
+    /// [`PageCache::receive`], never letting go a page for which `keep` holds (one a front
+    /// stands in, asked when the cache would let it go).
+    pub fn receive_keeping(&mut self, keep: &dyn Fn(u32) -> bool) -> Vec<(u32, FormatError)> {
         let before = self.clock;
         let mut failures = Vec::new();
         while let Ok((page, result)) = self.arrivals.try_recv() {
             self.arrive(page, result, &mut failures);
         }
-        self.evict(before);
+        self.evict(before, keep);
         failures
     }
 
     /// Like [`PageCache::receive`], first waiting for one arrival while any page is pending (for
     /// tools and tests that read a tree through the cache, not for a frame).
     pub fn receive_waiting(&mut self) -> Vec<(u32, FormatError)> {
+        self.receive_waiting_keeping(&|_| false)
+    }
+
+    /// [`PageCache::receive_waiting`] with [`PageCache::receive_keeping`]'s `keep`.
+    pub fn receive_waiting_keeping(
+        &mut self,
+        keep: &dyn Fn(u32) -> bool,
+    ) -> Vec<(u32, FormatError)> {
         let before = self.clock;
         let mut failures = Vec::new();
         if self.stats.pending > 0
@@ -200,7 +214,7 @@ impl PageCache {
         while let Ok((page, result)) = self.arrivals.try_recv() {
             self.arrive(page, result, &mut failures);
         }
-        self.evict(before);
+        self.evict(before, keep);
         failures
     }
 
@@ -238,7 +252,7 @@ impl PageCache {
 
     /// Lets the least recently used unpinned pages go until the cache is within its budget, never
     /// one used after `clock` (a page that has just arrived stays until the front could pin it).
-    fn evict(&mut self, clock: u64) {
+    fn evict(&mut self, clock: u64, keep: &dyn Fn(u32) -> bool) {
         if self.stats.resident_bytes <= self.stats.budget {
             return;
         }
@@ -255,6 +269,9 @@ impl PageCache {
         for (_, p) in idle {
             if self.stats.resident_bytes <= self.stats.budget {
                 break;
+            }
+            if keep(p as u32) {
+                continue;
             }
             if let Slot::Resident { bytes, .. } =
                 std::mem::replace(&mut self.slots[p], Slot::Absent)
@@ -276,6 +293,40 @@ impl PageCache {
             }
             _ => None,
         }
+    }
+
+    /// Takes in `page`, read elsewhere (a runtime reads its first page itself, before the first
+    /// frame), as if it had arrived.
+    pub fn adopt(&mut self, page: u32, decoded: Arc<DecodedPage>) {
+        if page as usize >= self.slots.len() || self.is_resident(page) {
+            return;
+        }
+        if matches!(self.slots[page as usize], Slot::Pending) {
+            self.stats.pending -= 1;
+        }
+        self.clock += 1;
+        let bytes = decoded.bytes();
+        self.stats.loaded += 1;
+        self.stats.resident_bytes += bytes;
+        self.stats.resident_pages += 1;
+        self.slots[page as usize] = Slot::Resident {
+            page: decoded,
+            bytes,
+            used: self.clock,
+            pins: 0,
+        };
+    }
+
+    /// Every resident page, without counting it as used.
+    pub fn resident(&self) -> Vec<(u32, Arc<DecodedPage>)> {
+        self.slots
+            .iter()
+            .enumerate()
+            .filter_map(|(p, s)| match s {
+                Slot::Resident { page, .. } => Some((p as u32, page.clone())),
+                _ => None,
+            })
+            .collect()
     }
 
     /// Whether `page` is resident.

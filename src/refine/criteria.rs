@@ -303,13 +303,21 @@ impl Tests {
     /// What these tests read of internal node `u`.
     #[inline]
     pub fn node_view(&self, h: &Hierarchy, u: u32) -> NodeView {
-        let b = &h.internal_bounds[(u - h.leaf_count) as usize];
+        self.view_of(
+            &h.internal_bounds[(u - h.leaf_count) as usize],
+            h.position[u as usize],
+        )
+    }
+
+    /// What these tests read of a node with bounds `b` standing at `center`.
+    #[inline]
+    pub fn view_of(&self, b: &super::hierarchy::Bounds, center: Vec3) -> NodeView {
         let mut error = if self.strict { b.bound } else { b.error };
         if self.shading {
             error = error.max(SHADING_WEIGHT * b.shading);
         }
         NodeView {
-            center: h.position[u as usize],
+            center,
             radius: b.radius,
             error,
             cone_axis: b.cone_axis,

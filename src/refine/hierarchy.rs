@@ -147,6 +147,49 @@ pub struct Internal {
     pub appear: u32,
 }
 
+/// What a part of a tree (see [`Hierarchy::of_part`]) takes from the whole tree.
+#[derive(Clone, Debug, Default)]
+pub struct Whole {
+    /// Whether the whole model winds inward (see [`Hierarchy::inward`]), decided once.
+    pub inward: bool,
+    /// The whole model's diagonal.
+    pub diagonal: f32,
+    /// Per leaf of the part (its id in the part's tree), the largest turn of normals in the
+    /// subtree it stands for (0 for a true leaf): what the shading term of its ancestors weighs.
+    pub leaf_turn: Vec<f32>,
+}
+
+/// The view data of a node that stands as a leaf for a subtree not read yet (see
+/// [`Hierarchy::of_part`]), as [`Hierarchy::internal_bounds`] would hold it for the node were
+/// its subtree read: `turn` the largest turn of normals below it, as far as is known.
+pub fn stand_in_bounds(x: &crate::vtree::Node, turn: f32, inward: bool) -> Bounds {
+    let center = Vec3::from_slice(&x.sphere);
+    let radius = (center.distance(x.position()) + x.sphere[3]) * (1.0 + BOUND_SLACK);
+    let (cone_axis, cone_sin) = runtime_cone(x, if inward { -1.0 } else { 1.0 });
+    Bounds {
+        radius,
+        error: x.error,
+        shading: radius * turn.min(std::f32::consts::FRAC_PI_2).sin(),
+        cone_axis,
+        cone_sin,
+        bound: x.error,
+    }
+}
+
+/// How far a normal can turn from a node's to a child's anywhere below the node, from what the
+/// node alone says (what [`subtree_turns`] finds by walking the subtree): the subtree's faces,
+/// and so its nodes' normals, lie within the node's normal cone, so two of them differ by at most
+/// twice the cone's half-angle, and one from the node's own by its angle to the axis plus the
+/// half-angle (π for a node without a cone or a normal).
+pub fn turn_bound(x: &crate::vtree::Node) -> f32 {
+    let (n, axis) = (Vec3::from_array(x.normal), Vec3::from_slice(&x.cone));
+    if n == Vec3::ZERO || axis == Vec3::ZERO || x.cone[3] <= 0.0 {
+        return std::f32::consts::PI;
+    }
+    let half = x.cone[3].min(1.0).acos();
+    (2.0 * half).max(n.dot(axis).clamp(-1.0, 1.0).acos() + half)
+}
+
 /// Widen spheres and cones by this relative amount so float rounding never lets a member poke out.
 const BOUND_SLACK: f32 = 1e-5;
 
@@ -156,17 +199,24 @@ pub(crate) const OCT_ERROR_RADIANS: f32 = 2e-3;
 
 impl Hierarchy {
     pub fn new(tree: &VertexTree) -> Hierarchy {
-        Hierarchy::build(std::borrow::Cow::Borrowed(tree))
+        Hierarchy::build(std::borrow::Cow::Borrowed(tree), None)
     }
 
     /// [`Hierarchy::new`] of a tree no longer needed: its nodes (84 bytes each, 1.2 GB at 14 M
     /// triangles) are let go as soon as their data is read, before the triangles are grouped,
     /// which is when building the hierarchy holds the most.
     pub fn from_tree(tree: VertexTree) -> Hierarchy {
-        Hierarchy::build(std::borrow::Cow::Owned(tree))
+        Hierarchy::build(std::borrow::Cow::Owned(tree), None)
     }
 
-    fn build(mut tree: std::borrow::Cow<'_, VertexTree>) -> Hierarchy {
+    /// [`Hierarchy::from_tree`] of the part of a larger tree that has been read (see
+    /// `refine::streamed`): some of its leaves stand for subtrees not read yet, and what the
+    /// whole tree decides is given rather than guessed from the part.
+    pub fn of_part(tree: VertexTree, whole: &Whole) -> Hierarchy {
+        Hierarchy::build(std::borrow::Cow::Owned(tree), Some(whole))
+    }
+
+    fn build(mut tree: std::borrow::Cow<'_, VertexTree>, whole: Option<&Whole>) -> Hierarchy {
         // Every per-node and per-triangle pass below runs on all cores (each gathers from the
         // tree's nodes in a new order, a cache miss a read: at 14 M triangles this was most of the
         // time before a model's first frame); results are the same on any number of threads.
@@ -210,7 +260,14 @@ impl Hierarchy {
                 (center.distance(x.position()) + x.sphere[3]) * (1.0 + BOUND_SLACK)
             })
             .collect();
-        let turn = subtree_turns(&internal, &internal_children, |c| node(c).normal, n_leaves);
+        let leaf_turn = |c: u32| whole.map_or(0.0, |w| w.leaf_turn[old_of[c as usize] as usize]);
+        let turn = subtree_turns(
+            &internal,
+            &internal_children,
+            |c| node(c).normal,
+            leaf_turn,
+            n_leaves,
+        );
         let internal_shading: Vec<f32> = turn
             .iter()
             .zip(&internal_radius)
@@ -238,14 +295,14 @@ impl Hierarchy {
             .collect();
         // A one-sided mesh (a lit room, seen from inside) means its winding even when its volume is
         // negative; anything else seen from outside is taken to be wound inward when it is.
-        let inward = !tree.one_sided && signed_volume(&tree.nodes, &tree.triangles) < 0.0;
+        let inward = whole.map_or_else(|| tree.winds_inward(), |w| w.inward);
         let internal_bounds = bounds_of(
             &internal,
             [&deviation, &internal_radius, &internal_shading],
             inward,
         );
         drop(internal);
-        let diagonal = tree.diagonal();
+        let diagonal = whole.map_or_else(|| tree.diagonal(), |w| w.diagonal);
         if let std::borrow::Cow::Owned(t) = &mut tree {
             t.nodes = Vec::new();
             t.vanish_offsets = Vec::new();
@@ -426,25 +483,6 @@ impl Hierarchy {
         }
         d
     }
-}
-
-/// Six times the signed volume enclosed by the triangles (positive when they wind counter-clockwise
-/// seen from outside). Open meshes give a rough answer, which is all the orientation guess needs.
-fn signed_volume(nodes: &[crate::vtree::Node], triangles: &[[u32; 3]]) -> f64 {
-    // Sums of fixed blocks, added in order: the same bits on any number of threads.
-    let blocks: Vec<f64> = triangles
-        .par_chunks(1 << 14)
-        .map(|block| {
-            block
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|v| nodes[v as usize].position().as_dvec3());
-                    a.dot(b.cross(c))
-                })
-                .sum()
-        })
-        .collect();
-    blocks.iter().sum()
 }
 
 /// The encoding of an unknown (zero) normal: −32768 never comes out of a unit vector.
@@ -681,6 +719,7 @@ fn subtree_turns(
     internal: &[&crate::vtree::Node],
     internal_children: &[[u32; 2]],
     normal_of: impl Fn(u32) -> [f32; 3],
+    leaf_turn: impl Fn(u32) -> f32,
     n_leaves: u32,
 ) -> Vec<f32> {
     let mut turn = vec![0f32; internal.len()];
@@ -696,7 +735,7 @@ fn subtree_turns(
             let below = if c >= n_leaves {
                 turn[(c - n_leaves) as usize]
             } else {
-                0.0
+                leaf_turn(c)
             };
             turn[k] = turn[k].max(angle).max(below);
         }

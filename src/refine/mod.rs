@@ -21,6 +21,7 @@ pub mod front;
 pub mod hierarchy;
 pub mod hold;
 mod stream;
+pub mod streamed;
 mod trace;
 pub mod validation;
 
@@ -30,3 +31,4 @@ pub use criteria::{Camera, Tests, View};
 pub use front::{CutError, Front};
 pub use hierarchy::Hierarchy;
 pub use hold::Hold;
+pub use streamed::{StreamError, StreamFrame, Streamed};

@@ -32,9 +32,17 @@ pub(super) const META_LEN: usize = 32;
 const NODE_LEN: u64 = std::mem::size_of::<Node>() as u64;
 pub(super) const FLAG_COLORS: u32 = 1;
 pub(super) const FLAG_NORMALS: u32 = 2;
-const FLAG_ONE_SIDED: u32 = 4;
+pub(super) const FLAG_ONE_SIDED: u32 = 4;
 /// Version 4: the pages store node colours (else every node is white).
 pub(super) const FLAG_NODE_COLORS: u32 = 8;
+/// The winding is recorded (see [`VertexTree::winds_inward`]), and is inward.
+pub(super) const FLAG_WINDING: u32 = 16;
+pub(super) const FLAG_INWARD: u32 = 32;
+
+/// The winding META's flags record: `None` for a file from before it was recorded.
+pub(super) fn recorded_winding(flags: u32) -> Option<bool> {
+    (flags & FLAG_WINDING != 0).then_some(flags & FLAG_INWARD != 0)
+}
 
 const SECTIONS: [[u8; 4]; 5] = [*b"META", *b"NODE", *b"TRIS", *b"VOFF", *b"PART"];
 /// Version 4's instead: the page directory and the pages (see [`super::paged`]).
@@ -116,7 +124,9 @@ fn write_to(
     let flags = if tree.has_colors { FLAG_COLORS } else { 0 }
         | if tree.has_normals { FLAG_NORMALS } else { 0 }
         | if tree.one_sided { FLAG_ONE_SIDED } else { 0 }
-        | if node_colors { FLAG_NODE_COLORS } else { 0 };
+        | if node_colors { FLAG_NODE_COLORS } else { 0 }
+        | FLAG_WINDING
+        | if tree.winds_inward() { FLAG_INWARD } else { 0 };
     for x in [
         tree.leaf_count,
         tree.nodes.len() as u32,
@@ -462,6 +472,7 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
         has_colors: flags & FLAG_COLORS != 0,
         has_normals: flags & FLAG_NORMALS != 0,
         one_sided: flags & FLAG_ONE_SIDED != 0,
+        inward: recorded_winding(flags),
         parts: part_list(part_bytes, parts, &fail)?,
         appearance: match (uvtx, texs) {
             (Some(uvtx), Some(texs)) => Some(appearance(uvtx, texs, nodes, &fail)?),

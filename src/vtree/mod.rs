@@ -113,6 +113,10 @@ pub struct VertexTree {
     /// (versions 4 and 5). Every error and sphere already holds it; [`VertexTree::deviation_bounds`]
     /// adds it.
     pub position_error: f32,
+    /// Whether the input's faces wind clockwise seen from outside, as a file records it (see
+    /// [`VertexTree::winds_inward`]); `None` for a tree as built, or a file from before it was
+    /// recorded.
+    pub inward: Option<bool>,
 }
 
 /// Hugues Hoppe's wedges (*Efficient implementation of progressive meshes*, Computers & Graphics
@@ -314,6 +318,17 @@ pub fn check_viewable_diagonal(diagonal: f32) -> Result<(), ScaleError> {
 }
 
 impl VertexTree {
+    /// Whether the input's faces wind clockwise seen from outside (negative signed volume, like
+    /// the horse model), which the runtime's back-face test turns its cones for: as recorded in
+    /// the file, else from the triangles. A one-sided mesh (a lit room, seen from inside) means
+    /// its winding even when its volume is negative. Open meshes give a rough answer, decided
+    /// once, when the tree is written, so that a reader of part of the tree (a streamed front)
+    /// turns its cones as a reader of all of it does.
+    pub fn winds_inward(&self) -> bool {
+        self.inward
+            .unwrap_or_else(|| !self.one_sided && signed_volume(&self.nodes, &self.triangles) < 0.0)
+    }
+
     /// Centre and radius of the box around the leaves (see [`sphere_of_box`]).
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         sphere_of_box(self.leaf_box())
@@ -387,4 +402,24 @@ pub fn load_or_build(
         source,
     })?;
     Ok(tree)
+}
+
+/// Six times the signed volume enclosed by the triangles (positive when they wind counter-clockwise
+/// seen from outside).
+fn signed_volume(nodes: &[Node], triangles: &[[u32; 3]]) -> f64 {
+    use rayon::prelude::*;
+    // Sums of fixed blocks, added in order: the same bits on any number of threads.
+    let blocks: Vec<f64> = triangles
+        .par_chunks(1 << 14)
+        .map(|block| {
+            block
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| nodes[v as usize].position().as_dvec3());
+                    a.dot(b.cross(c))
+                })
+                .sum()
+        })
+        .collect();
+    blocks.iter().sum()
 }

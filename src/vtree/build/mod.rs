@@ -728,7 +728,7 @@ pub(super) fn geometry_tree(
     triangles: Vec<[u32; 3]>,
     vanish_offsets: Vec<u32>,
 ) -> VertexTree {
-    VertexTree {
+    let mut tree = VertexTree {
         leaf_count: mesh.positions.len() as u32,
         nodes,
         triangles,
@@ -741,8 +741,12 @@ pub(super) fn geometry_tree(
         materials: None,
         wedges: None,
         position_error: 0.0,
+        inward: None,
         parts: part_infos(mesh),
-    }
+    };
+    // Decided once, on the positions as built, and recorded in the file.
+    tree.inward = Some(tree.winds_inward());
+    tree
 }
 
 /// Two wedges of one texture whose best coordinates at a merged place lie further apart than this

@@ -8,8 +8,8 @@ use super::read::{DecodedPage, PageContext, RootLeaves, check_top, decode_page, 
 use crate::simplify::Metric;
 use crate::vtree::PartInfo;
 use crate::vtree::format::{
-    FLAG_COLORS, FLAG_NODE_COLORS, FLAG_NORMALS, FormatError, FormatErrorKind, META_LEN, OPTIONAL,
-    part_list,
+    FLAG_COLORS, FLAG_NODE_COLORS, FLAG_NORMALS, FLAG_ONE_SIDED, FormatError, FormatErrorKind,
+    META_LEN, OPTIONAL, part_list, recorded_winding,
 };
 use crate::vtree::table::{Fail, HEAD_BYTES, check_body, table};
 use glam::Vec3;
@@ -34,6 +34,9 @@ pub struct PagedFile {
     /// META's flags: the input had colours, normals; it is one-sided.
     pub has_colors: bool,
     pub has_normals: bool,
+    pub one_sided: bool,
+    /// The winding the file records (see [`crate::vtree::VertexTree::winds_inward`]).
+    pub inward: Option<bool>,
     pub parts: Vec<PartInfo>,
     /// Whether the file has any section of appearance (texture coordinates, textures,
     /// materials, wedges), which this reader does not read.
@@ -134,12 +137,28 @@ impl PagedFile {
             metric,
             has_colors: flags & FLAG_COLORS != 0,
             has_normals: flags & FLAG_NORMALS != 0,
+            one_sided: flags & FLAG_ONE_SIDED != 0,
+            inward: recorded_winding(flags),
             parts,
             appearance,
             roots: RootLeaves::of(&entries),
             entries,
             data_at,
         })
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The page each page's root heads, by the root's id.
+    pub fn page_of_root(&self) -> rustc_hash::FxHashMap<u32, u32> {
+        self.entries
+            .iter()
+            .enumerate()
+            .map(|(p, e)| (e.root, p as u32))
+            .collect()
     }
 
     /// Whether the file numbers its leaves depth-first, each page giving its nodes' leaves
