@@ -221,6 +221,31 @@ fn warn_if_too_large_to_view(model: &std::path::Path) {
     }
 }
 
+/// The cache a tree that `view` and `render` stream by default may fill (see their `--cache`):
+/// `None` when `model` is read whole, that is unless it is a paged tree that can be streamed
+/// and reading it whole would take more than half of this machine's memory.
+fn stream_by_default(model: &std::path::Path) -> Option<u64> {
+    let is_tree = model.extension().and_then(|e| e.to_str()) == Some("vtree");
+    let file = is_tree
+        .then(|| vunify::vtree::PagedFile::open(model).ok())
+        .flatten()?;
+    let physical = vunify::memory::physical_bytes()?;
+    let need = (file.triangles as u64).saturating_mul(VIEW_BYTES_PER_TRIANGLE);
+    let streams = file.leaves_depth_first() && !file.appearance;
+    (streams && need > physical / 2).then(|| {
+        let size = (physical / 8).clamp(256 << 20, 1 << 30);
+        eprintln!(
+            "note: {}: reading its {} triangles whole would take about {:.1} GiB; streaming it \
+             within {} MiB instead (--cache SIZE to choose)",
+            model.display(),
+            file.triangles,
+            need as f64 / (1u64 << 30) as f64,
+            size >> 20
+        );
+        size
+    })
+}
+
 /// The warning of [`warn_if_too_large_to_view`] for a tree of `triangles` on a machine of
 /// `physical` bytes (unknown: none).
 fn too_large_to_view(

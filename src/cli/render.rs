@@ -56,6 +56,14 @@ pub struct RenderArgs {
     /// texture, or uv (a checker over the texture coordinates, to see seams and stretch).
     #[arg(long, value_enum, default_value = "auto")]
     color_by: ColorChoice,
+    /// Stream the tree from its file instead of reading it whole: pages are read as the view
+    /// asks for them, on a thread of their own (a frame never waits for the disk), and the front
+    /// refines where they have arrived. SIZE (e.g. 256M, 1G) is the memory the tree may hold:
+    /// pages read take at most a third of it, the runtime's hierarchy over them the rest.
+    /// Without it, a paged tree too large to read whole in half of this machine's memory is
+    /// streamed within an eighth of it (at least 256 MiB, at most 1 GiB).
+    #[arg(long, value_name = "SIZE", value_parser = super::build::parse_memory, conflicts_with_all = ["compare", "full", "strict"])]
+    cache: Option<u64>,
     /// Print the summary as JSON instead of text: the medians and 95th percentiles of refinement,
     /// GPU and frame times, triangles, image error with --compare, seconds to the first frame
     /// (`first_frame_s`), the longest frame (`max_frame_ms`) and the peak resident memory
@@ -96,8 +104,8 @@ pub fn run(_: RenderArgs) -> Result<()> {
 pub fn run(args: RenderArgs) -> Result<()> {
     let started = std::time::Instant::now();
     use anyhow::bail;
-    use vunify::refine::{Hierarchy, Mode, Settings};
-    use vunify::render::{ColorBy, DrawOptions, Gpu, job};
+    use vunify::refine::Hierarchy;
+    use vunify::render::{Gpu, job};
     if !(args.tau > 0.0 && args.tau.is_finite()) {
         bail!(
             "--tau must be a positive number of pixels, got {}",
@@ -106,6 +114,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     if !(args.fps > 0.0 && args.fps <= 1000.0) {
         bail!("--fps must be positive and at most 1000, got {}", args.fps);
+    }
+    let streaming = match args.cache {
+        Some(size) => Some(size),
+        None if !(args.compare || args.full || args.strict) => {
+            super::stream_by_default(&args.model)
+        }
+        None => None,
+    };
+    if let Some(size) = streaming {
+        return run_streamed(args, size, started);
     }
     super::warn_if_too_large_to_view(&args.model);
     let tree = super::load_tree(&args.model)?;
@@ -118,9 +136,85 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
     };
     let gpu = Gpu::headless()?;
+    let job = render_job(&args, started);
     // The runtime reads the hierarchy only: the tree (1.4 GB at 14 M triangles) goes as it is
     // read, before the GPU's buffers are made.
     let h = Hierarchy::from_tree(tree);
+    if !args.json {
+        println!(
+            "rendering {} on {} at {}x{}",
+            args.model.display(),
+            gpu.adapter_name(),
+            args.size[0],
+            args.size[1]
+        );
+    }
+    let summary = with_progress(|progress| job::render_path(&gpu, &h, &path, &job, progress))?;
+    report(&args, &summary)
+}
+
+/// `render` over a tree streamed from its file, its pages within a third of `size` bytes.
+#[cfg(feature = "render")]
+fn run_streamed(args: RenderArgs, size: u64, started: std::time::Instant) -> Result<()> {
+    use vunify::render::{Gpu, job};
+    let job = render_job(&args, started);
+    let mut streamed = vunify::refine::Streamed::open(&args.model, size / 3, job.settings)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    vunify::vtree::check_viewable_diagonal(streamed.hierarchy().diagonal)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    let path = match &args.path {
+        Some(p) => vunify::camera_path::CameraPath::load(p)?,
+        None => super::path::camera_path(super::path::PathKind::Orbit, streamed.sphere(), 10.0),
+    };
+    let gpu = Gpu::headless()?;
+    if !args.json {
+        println!(
+            "rendering {} on {} at {}x{}, streamed within {} MiB",
+            args.model.display(),
+            gpu.adapter_name(),
+            args.size[0],
+            args.size[1],
+            size >> 20
+        );
+    }
+    let summary =
+        with_progress(|progress| job::render_streamed(&gpu, &mut streamed, &path, &job, progress))?;
+    report(&args, &summary)
+}
+
+/// Runs `render` with a progress bar of its frames.
+#[cfg(feature = "render")]
+fn with_progress<T, E: Into<anyhow::Error>>(
+    render: impl FnOnce(&mut dyn FnMut(usize, usize)) -> Result<T, E>,
+) -> Result<T> {
+    let bar = super::progress_bar(0, "frames [{bar:40}] {pos}/{len} ({eta})");
+    let out = render(&mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .map_err(Into::into);
+    bar.finish_and_clear();
+    out
+}
+
+#[cfg(feature = "render")]
+fn report(args: &RenderArgs, summary: &vunify::render::job::Summary) -> Result<()> {
+    for e in &summary.page_errors {
+        eprintln!("warning: {e}; the front stayed coarse there");
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(summary)?);
+    } else {
+        print_summary(summary, &args.out);
+    }
+    Ok(())
+}
+
+/// The render job `args` ask for.
+#[cfg(feature = "render")]
+fn render_job(args: &RenderArgs, started: std::time::Instant) -> vunify::render::job::RenderJob {
+    use vunify::refine::{Mode, Settings};
+    use vunify::render::{ColorBy, DrawOptions, job};
     let settings = Settings {
         tolerance_px: args.tau,
         mode: args.budget.map_or(Mode::Tolerance, Mode::Budget),
@@ -145,7 +239,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         tolerance_px: args.tau,
         ..Default::default()
     };
-    let job = job::RenderJob {
+    job::RenderJob {
         size: args.size,
         settings,
         draw,
@@ -155,28 +249,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         full: args.full,
         out_dir: args.out.clone(),
         started: Some(started),
-    };
-    if !args.json {
-        println!(
-            "rendering {} on {} at {}x{}",
-            args.model.display(),
-            gpu.adapter_name(),
-            args.size[0],
-            args.size[1]
-        );
     }
-    let bar = super::progress_bar(0, "frames [{bar:40}] {pos}/{len} ({eta})");
-    let summary = job::render_path(&gpu, &h, &path, &job, &mut |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    })?;
-    bar.finish_and_clear();
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
-        print_summary(&summary, &args.out);
-    }
-    Ok(())
 }
 
 #[cfg(feature = "render")]

@@ -173,6 +173,8 @@ struct Meta {
     tree: VertexTree,
     inward: Option<bool>,
     diagonal: f32,
+    /// The root's bounding sphere.
+    sphere: (Vec3, f32),
 }
 
 /// A node of a part in the making: which of the pages it is in, and where in that page.
@@ -406,6 +408,46 @@ fn build_part(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<(Part, b
     ))
 }
 
+/// How many nodes the first part holds at least (when the tree has them): the pages nearest
+/// the root, read before the first frame, so that it draws the model coarsely rather than a
+/// root page's few nodes.
+const FIRST_NODES: usize = 1 << 15;
+
+/// The pages nearest the root (level by level, each level read on every core) until they hold
+/// [`FIRST_NODES`].
+fn first_pages(
+    file: &PagedFile,
+    page_of_root: &FxHashMap<u32, u32>,
+    root_page: u32,
+    root: DecodedPage,
+) -> Result<Vec<(u32, Arc<DecodedPage>)>, FormatError> {
+    use rayon::prelude::*;
+    let mut pages = vec![(root_page, Arc::new(root))];
+    let mut level = vec![0usize];
+    let mut nodes = pages[0].1.ids.len();
+    while nodes < FIRST_NODES && !level.is_empty() {
+        let below: Vec<u32> = (level.iter())
+            .flat_map(|&k| {
+                let page = &pages[k].1;
+                (page.nodes.iter())
+                    .flat_map(|n| n.children)
+                    .filter(|c| *c != NONE && page.ids.binary_search(c).is_err())
+                    .filter_map(|c| page_of_root.get(&c).copied())
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let read: Vec<DecodedPage> = (below.par_iter())
+            .map(|&p| file.read_page(p as usize))
+            .collect::<Result<_, _>>()?;
+        level = (pages.len()..pages.len() + read.len()).collect();
+        for (p, page) in below.into_iter().zip(read) {
+            nodes += page.ids.len();
+            pages.push((p, Arc::new(page)));
+        }
+    }
+    Ok(pages)
+}
+
 /// A part being built on another thread, with the front it will start from.
 type Building = Receiver<Option<(Part, Refiner)>>;
 
@@ -514,18 +556,21 @@ impl Streamed {
             // The root's sphere holds every leaf: its diameter stands for the leaves' box's
             // diagonal, which only reading every page would give.
             diagonal: root.nodes.last().map_or(1.0, |n| 2.0 * n.sphere[3]),
+            sphere: root.nodes.last().map_or((Vec3::ZERO, 1.0), |n| {
+                (Vec3::from_slice(&n.sphere), n.sphere[3])
+            }),
         };
-        let pages = vec![(root_page, Arc::new(root))];
+        let pages = first_pages(&file, &meta.page_of_root, root_page, root)
+            .map_err(|e| StreamError::Root(name.clone(), e.to_string()))?;
         let (part, inward) = build_part(&meta, &pages).ok_or_else(|| {
             StreamError::Root(name, "the root's page does not hold the root".into())
         })?;
         meta.inward = Some(inward);
         let refiner = Refiner::new(&part.h, settings);
         let mut cache = PageCache::new(source, budget);
-        cache.adopt(
-            root_page,
-            pages.into_iter().next().expect("the root's page").1,
-        );
+        for (p, page) in pages {
+            cache.adopt(p, page);
+        }
         let mut streamed = Streamed {
             meta,
             cache,
@@ -543,6 +588,11 @@ impl Streamed {
         };
         streamed.loaded_then = streamed.cache.stats().loaded;
         Ok(streamed)
+    }
+
+    /// The whole tree's bounding sphere (its root's).
+    pub fn sphere(&self) -> (Vec3, f32) {
+        self.meta.sphere
     }
 
     /// The hierarchy the front is a cut of now.
@@ -604,6 +654,19 @@ impl Streamed {
             stats,
             new_part,
             cache: self.cache.stats(),
+        }
+    }
+
+    /// Before a first frame seen from `camera`: adapts and waits for what it asks for, part
+    /// after part, until nothing more is asked for or `limit` has passed (then the frames go on
+    /// from there, and sharpen as the rest arrives).
+    pub fn prepare(&mut self, camera: &Camera, limit: std::time::Duration) {
+        let start = std::time::Instant::now();
+        while start.elapsed() < limit {
+            self.update(camera);
+            if !self.settle() {
+                break;
+            }
         }
     }
 
@@ -694,19 +757,51 @@ impl Streamed {
     fn ask(&mut self, camera: &Camera, tau: f32) {
         let view = View::new(camera);
         let tests = self.settings.tests;
+        let mut wanted: Vec<(u32, f32)> = Vec::new();
         for s in &self.part.stand_ins {
             if !self.refiner.front.is_active(s.leaf) {
                 continue;
             }
             let n = tests.view_of(&s.bounds, s.center);
-            if !tests.sees(&view, &n) {
+            if tests.sees(&view, &n) {
+                let px = tests.projected(&view, &n);
+                if px > tau {
+                    wanted.extend(s.wants.into_iter().filter(|&p| p != NONE).map(|p| (p, px)));
+                }
+            }
+        }
+        // A wanted page that has arrived but is not in the part yet is looked into at once:
+        // the pages below it that the view wants are asked for now, not a part later.
+        let inward = self.meta.inward.unwrap_or(false);
+        let mut looked: rustc_hash::FxHashSet<u32> = Default::default();
+        while let Some((p, px)) = wanted.pop() {
+            self.cache.request(p, px);
+            if self.part.has_page(p) || !looked.insert(p) {
                 continue;
             }
-            let px = tests.projected(&view, &n);
-            if px > tau {
-                for p in s.wants.into_iter().filter(|&p| p != NONE) {
-                    self.cache.request(p, px);
-                    self.stale |= self.cache.is_resident(p) && !self.part.has_page(p);
+            let Some(page) = self.cache.get(p) else {
+                continue;
+            };
+            self.stale = true;
+            for (&id, node) in page.ids.iter().zip(&page.nodes) {
+                if id < self.meta.leaf_count {
+                    continue;
+                }
+                let outside = node
+                    .children
+                    .map(|c| page.ids.binary_search(&c).is_err().then_some(c));
+                if outside == [None, None] {
+                    continue;
+                }
+                let bounds = stand_in_bounds(node, turn_bound(node), inward);
+                let n = tests.view_of(&bounds, node.position());
+                let px = tests.projected(&view, &n);
+                if px > tau && tests.sees(&view, &n) {
+                    for c in outside.into_iter().flatten() {
+                        if let Some(&q) = self.meta.page_of_root.get(&c) {
+                            wanted.push((q, px));
+                        }
+                    }
                 }
             }
         }

@@ -6,7 +6,9 @@ use super::headless::{Gpu, OFFSCREEN_FORMAT, Offscreen};
 use super::image_diff::{self, Comparison};
 use super::renderer::{DrawOptions, Renderer};
 use crate::camera_path::CameraPath;
-use crate::refine::{Camera, FrameStats, Front, Hierarchy, Refiner, Settings};
+use crate::refine::{
+    CacheStats, Camera, FrameStats, Front, Hierarchy, Refiner, Settings, Streamed,
+};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -54,6 +56,11 @@ pub struct FrameRecord {
     pub full_frame_ms: Option<f64>,
     /// The process's resident memory after the frame, MiB (Linux; `None` elsewhere).
     pub resident_mb: Option<f64>,
+    /// A streamed tree's pages: read since the start, asked for and not arrived yet, and the
+    /// bytes of those resident, MiB (`None` for a tree read whole).
+    pub pages_loaded: Option<u64>,
+    pub pages_pending: Option<u64>,
+    pub cache_mb: Option<f64>,
 }
 
 impl FrameRecord {
@@ -92,6 +99,12 @@ pub struct Summary {
     pub max_frame_ms: f64,
     /// The process's peak resident memory (`/usr/bin/time -v`'s maximum resident set size), MiB.
     pub peak_resident_mb: Option<f64>,
+    /// A streamed tree's pages read, and the parts of it the runtime took in (`None` for a tree
+    /// read whole).
+    pub pages_loaded: Option<u64>,
+    pub parts: Option<u64>,
+    /// Pages that could not be read, each once: the front stayed coarse there.
+    pub page_errors: Vec<String>,
     pub written: Vec<PathBuf>,
 }
 
@@ -127,6 +140,101 @@ pub fn render_path(
     job: &RenderJob,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Summary, JobError> {
+    let mut whole = Whole {
+        h,
+        refiner: Refiner::new(h, job.settings),
+    };
+    render_frames(gpu, &mut whole, path, job, progress)
+}
+
+/// [`render_path`] over a tree streamed from its file: each frame draws the front over the
+/// pages read so far (see [`Streamed`]). The full mesh is not at hand, so neither `compare` nor
+/// `full` can be asked for.
+pub fn render_streamed(
+    gpu: &Gpu,
+    streamed: &mut Streamed,
+    path: &CameraPath,
+    job: &RenderJob,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Summary, JobError> {
+    if job.compare || job.full {
+        return Err(JobError::NeedsWhole);
+    }
+    // The first frame waits a little for what it asks for, rather than show the root's pages.
+    let size = [job.size[0].max(1), job.size[1].max(1)];
+    streamed.prepare(
+        &camera_at(path, 0.0, size, streamed.hierarchy().diagonal),
+        FIRST_FRAME_WAIT,
+    );
+    let mut summary = render_frames(gpu, streamed, path, job, progress)?;
+    summary.pages_loaded = Some(streamed.cache_stats().loaded);
+    summary.parts = Some(streamed.parts);
+    Ok(summary)
+}
+
+/// How long a streamed render's first frame may wait for the pages it asks for.
+const FIRST_FRAME_WAIT: std::time::Duration = std::time::Duration::from_millis(1000);
+
+/// What a render draws: a front over a hierarchy, adapted each frame.
+trait Source {
+    fn hierarchy(&self) -> &Hierarchy;
+    /// Adapts the front to `camera`; also says whether the hierarchy is new.
+    fn update(&mut self, camera: &Camera) -> (FrameStats, bool);
+    fn output(&mut self) -> (&Hierarchy, &mut Front, &[(u32, glam::Vec3)]);
+    /// A streamed tree's cache, and the pages that could not be read since the last call.
+    fn cache(&mut self) -> Option<(CacheStats, Vec<String>)>;
+}
+
+/// A tree read whole.
+struct Whole<'a> {
+    h: &'a Hierarchy,
+    refiner: Refiner,
+}
+
+impl Source for Whole<'_> {
+    fn hierarchy(&self) -> &Hierarchy {
+        self.h
+    }
+    fn update(&mut self, camera: &Camera) -> (FrameStats, bool) {
+        (self.refiner.update(self.h, camera), false)
+    }
+    fn output(&mut self) -> (&Hierarchy, &mut Front, &[(u32, glam::Vec3)]) {
+        let (front, moved) = self.refiner.output();
+        (self.h, front, moved)
+    }
+    fn cache(&mut self) -> Option<(CacheStats, Vec<String>)> {
+        None
+    }
+}
+
+impl Source for Streamed {
+    fn hierarchy(&self) -> &Hierarchy {
+        Streamed::hierarchy(self)
+    }
+    fn update(&mut self, camera: &Camera) -> (FrameStats, bool) {
+        let frame = Streamed::update(self, camera);
+        (frame.stats, frame.new_part)
+    }
+    fn output(&mut self) -> (&Hierarchy, &mut Front, &[(u32, glam::Vec3)]) {
+        Streamed::output(self)
+    }
+    fn cache(&mut self) -> Option<(CacheStats, Vec<String>)> {
+        let errors = self.take_failures();
+        Some((
+            self.cache_stats(),
+            errors.iter().map(|(_, e)| e.to_string()).collect(),
+        ))
+    }
+}
+
+fn render_frames(
+    gpu: &Gpu,
+    source: &mut dyn Source,
+    path: &CameraPath,
+    job: &RenderJob,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Summary, JobError> {
+    let h = source.hierarchy();
     let started = job.started.unwrap_or_else(Instant::now);
     let frames = frame_count(path.duration(), job.fps).ok_or(JobError::TooManyFrames {
         seconds: path.duration(),
@@ -137,29 +245,16 @@ pub fn render_path(
     let target = Offscreen::new(device, job.size);
     let mut lod = Renderer::new(device, OFFSCREEN_FORMAT);
     lod.set_hierarchy(device, queue, h);
-    let mut full = None;
-    let mut full_triangles = 0;
-    if job.compare {
+    let mut full = job.compare.then(|| {
         let mut r = Renderer::new(device, OFFSCREEN_FORMAT);
         r.set_hierarchy(device, queue, h);
-        let mut all = Front::new(h);
-        all.refine_all(h);
-        r.set_triangles(device, queue, &all.all_vertices(h));
-        full_triangles = all.triangle_count();
-        full = Some(r);
-    }
-    // With `full`, every leaf is drawn and nothing refines.
-    let fixed = job.full.then(|| {
-        let mut all = Front::new(h);
-        all.refine_all(h);
-        lod.set_triangles(device, queue, &all.all_vertices(h));
-        FrameStats {
-            triangles: all.triangle_count() as u32,
-            active_vertices: h.leaf_count,
-            ..Default::default()
-        }
+        draw_every_leaf(gpu, &mut r, h);
+        r
     });
-    let mut refiner = Refiner::new(h, job.settings);
+    let full_triangles = full.as_ref().map_or(0, |r| r.triangles() as usize);
+    // With `full`, every leaf is drawn and nothing refines.
+    let fixed = job.full.then(|| draw_every_leaf(gpu, &mut lod, h));
+    let diagonal = h.diagonal;
     let mut records = Vec::with_capacity(frames);
     let mut kept = Vec::new();
     let mut worst: Option<(f64, usize, [image::RgbaImage; 2])> = None;
@@ -171,17 +266,21 @@ pub fn render_path(
     let sheet_every = (frames / 16).max(1);
     for i in 0..frames {
         let t = i as f32 / job.fps;
-        let camera = camera_at(path, t, target.size, h.diagonal);
+        let camera = camera_at(path, t, target.size, diagonal);
         let (stats, upload_bytes, upload_ms) = match fixed {
             Some(stats) => (stats, 0, 0.0),
             None => {
-                let stats = refiner.update(h, &camera);
+                let (stats, new) = source.update(&camera);
                 let t0 = Instant::now();
-                let (front, moved) = refiner.output();
+                let (h, front, moved) = source.output();
+                if new {
+                    lod.set_hierarchy(device, queue, h);
+                }
                 let upload = lod.upload(device, queue, h, front, moved);
                 (stats, upload.bytes, t0.elapsed().as_secs_f64() * 1e3)
             }
         };
+        let cache = source.cache();
         let t0 = Instant::now();
         let (image, gpu_ms) = frame(gpu, &mut lod, &target, &camera, &job.draw)?;
         let frame_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -200,6 +299,12 @@ pub fn render_path(
             resident_mb: crate::memory::resident_bytes().map(|b| b as f64 / MIB),
             ..Default::default()
         };
+        if let Some((c, errors)) = cache {
+            record.pages_loaded = Some(c.loaded);
+            record.pages_pending = Some(c.pending as u64);
+            record.cache_mb = Some(c.resident_bytes as f64 / MIB);
+            summary.page_errors.extend(errors);
+        }
         if i == 0 {
             summary.first_frame_s = started.elapsed().as_secs_f64();
         }
@@ -248,6 +353,18 @@ pub fn render_path(
 }
 
 const MIB: f64 = 1024.0 * 1024.0;
+
+/// Has `renderer` draw the full mesh: every leaf of `h`, every triangle.
+fn draw_every_leaf(gpu: &Gpu, renderer: &mut Renderer, h: &Hierarchy) -> FrameStats {
+    let mut all = Front::new(h);
+    all.refine_all(h);
+    renderer.set_triangles(&gpu.device, &gpu.queue, &all.all_vertices(h));
+    FrameStats {
+        triangles: all.triangle_count() as u32,
+        active_vertices: h.leaf_count,
+        ..Default::default()
+    }
+}
 
 /// Renders one frame into `target` and reads it back, with the GPU time where there are timestamps.
 pub fn frame(
@@ -333,13 +450,14 @@ fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
     let mut out = Vec::new();
     writeln!(
         out,
-        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share,full_gpu_ms,full_frame_ms,resident_mb"
+        "frame,time_s,triangles,active_vertices,splits,unifies,refine_ms,upload_ms,upload_bytes,gpu_ms,frame_ms,psnr_db,differing_share,full_gpu_ms,full_frame_ms,resident_mb,pages_loaded,pages_pending,cache_mb"
     )?;
+    let count = |x: Option<u64>| x.map_or(String::new(), |v| v.to_string());
     let opt = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.4}"));
     for r in records {
         writeln!(
             out,
-            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{},{},{},{}",
+            "{},{:.4},{},{},{},{},{:.4},{:.4},{},{},{:.3},{},{},{},{},{},{},{},{}",
             r.frame,
             r.time_s,
             r.triangles,
@@ -356,6 +474,9 @@ fn write_csv(records: &[FrameRecord], file: &Path) -> std::io::Result<()> {
             opt(r.full_gpu_ms),
             opt(r.full_frame_ms),
             opt(r.resident_mb),
+            count(r.pages_loaded),
+            count(r.pages_pending),
+            opt(r.cache_mb),
         )?;
     }
     crate::export::write_atomic(file, &out)
@@ -383,6 +504,10 @@ pub enum JobError {
         "the path lasts {seconds} s: at {fps} frames a second that is more than the {MAX_FRAMES} frames a render makes; shorten the path or lower --fps"
     )]
     TooManyFrames { seconds: f32, fps: f32 },
+    #[error(
+        "--compare and --full draw the full mesh, which a streamed tree does not hold: leave out --cache to read the tree whole"
+    )]
+    NeedsWhole,
     #[error("{0}: cannot encode the image: {1}")]
     Image(PathBuf, String),
 }
