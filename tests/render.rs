@@ -403,6 +403,63 @@ fn render_job_writes_its_files() {
     std::fs::remove_dir_all(out).ok();
 }
 
+/// A streamed tree, once what the view asks for has arrived, draws what the tree read whole
+/// draws: the same front over the same positions, so the same pixels (shading test off, where
+/// the two weigh the same numbers).
+#[test]
+fn a_settled_streamed_frame_is_the_whole_trees() {
+    let Some(gpu) = gpu() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = grid(300, 300, |x, y| 2.0 * (0.2 * x).sin() * (0.15 * y).cos());
+    let path = dir.path().join("grid.vtree");
+    vtree::write_with(&tree_of(&mesh), &path, vtree::Encoding::Paged).unwrap();
+    let whole = Hierarchy::from_tree(vtree::read(&path).unwrap());
+    let settings = Settings {
+        tests: vunify::refine::Tests {
+            shading: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let size = [320, 240];
+    let (c, r) = bounds(&whole);
+    let camera = camera_at(&CameraPath::fly_in(c, r, 2.0), 1.6, size, whole.diagonal);
+    let target = Offscreen::new(&gpu.device, size);
+    let draw = |h: &Hierarchy, front: &mut Front| {
+        let mut renderer = Renderer::new(&gpu.device, OFFSCREEN_FORMAT);
+        renderer.set_hierarchy(&gpu.device, &gpu.queue, h);
+        renderer.upload(&gpu.device, &gpu.queue, h, front, &[]);
+        job::frame(
+            &gpu,
+            &mut renderer,
+            &target,
+            &camera,
+            &DrawOptions::default(),
+        )
+        .unwrap()
+        .0
+    };
+    let mut refiner = Refiner::new(&whole, settings);
+    for _ in 0..3 {
+        refiner.update(&whole, &camera);
+    }
+    let want = draw(&whole, &mut refiner.front);
+    let background = *want.get_pixel(0, 0);
+    let drawn = want.pixels().filter(|p| **p != background).count();
+    assert!(drawn > want.len() / 4 / 4, "{drawn} pixels drawn");
+    let mut streamed = vunify::refine::Streamed::open(&path, u64::MAX, settings).unwrap();
+    streamed.prepare(&camera, std::time::Duration::from_secs(60));
+    assert_eq!(
+        streamed.front().triangle_count(),
+        refiner.front.triangle_count()
+    );
+    let (h, front, _) = streamed.output();
+    let got = draw(h, front);
+    let c = compare(&got, &want);
+    assert!(c.psnr_db >= 50.0, "{} dB", c.psnr_db);
+    assert!(streamed.parts > 1, "{} parts", streamed.parts);
+}
+
 /// Renders the full cessna with `renderer` (already given the hierarchy) from a fixed view.
 fn full_frame(gpu: &Gpu, renderer: &mut Renderer, h: &Hierarchy, draw: &DrawOptions) -> RgbaImage {
     let mut f = Front::new(h);
