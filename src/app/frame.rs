@@ -208,6 +208,7 @@ fn refine_and_upload(
         upload_bytes: 0,
         ui_ms: 0.0,
         stats: FrameStats::default(),
+        cache: None,
     };
     if let Some(m) = &mut view.model {
         // The hold weighs the last frame; budget mode regulates τ itself.
@@ -221,18 +222,35 @@ fn refine_and_upload(
             .back()
             .map_or((0.0, 0), |l| (l.frame_ms, l.stats.triangles));
         let scale = view.hold.next(last_ms, last_triangles, hold_fps);
-        m.refiner.settings = refine_settings(settings, scale);
         let lod_camera = view.frozen.unwrap_or(*camera);
-        line.stats = m.refiner.update(&m.loaded.hierarchy, &lod_camera);
-        let t0 = Instant::now();
-        let (front, moved) = m.refiner.output();
-        let upload = m.renderer.upload(
-            &gfx.gpu.device,
-            &gfx.gpu.queue,
-            &m.loaded.hierarchy,
-            front,
-            moved,
-        );
+        let (device, queue) = (&gfx.gpu.device, &gfx.gpu.queue);
+        let t0;
+        let upload = match &mut m.streamed {
+            Some(s) => {
+                s.set_settings(refine_settings(settings, scale));
+                let frame = s.update(&lod_camera);
+                (line.stats, line.cache) = (frame.stats, Some(frame.cache));
+                t0 = Instant::now();
+                if frame.new_part {
+                    m.loaded.hierarchy = s.hierarchy_arc();
+                    m.renderer.set_hierarchy(device, queue, &m.loaded.hierarchy);
+                }
+                for (_, e) in s.take_failures() {
+                    view.error_log.push(e.to_string());
+                    view.error = Some(format!("{e}; the front stays coarse there"));
+                }
+                let (h, front, moved) = s.output();
+                m.renderer.upload(device, queue, h, front, moved)
+            }
+            None => {
+                m.refiner.settings = refine_settings(settings, scale);
+                line.stats = m.refiner.update(&m.loaded.hierarchy, &lod_camera);
+                t0 = Instant::now();
+                let (front, moved) = m.refiner.output();
+                m.renderer
+                    .upload(device, queue, &m.loaded.hierarchy, front, moved)
+            }
+        };
         line.upload_ms = t0.elapsed().as_secs_f64() * 1e3;
         line.upload_bytes = upload.bytes;
     }

@@ -38,6 +38,7 @@ use winit::window::{Window, WindowId};
 use draw::*;
 use frame::*;
 use state::*;
+pub use model::stream_trees_within;
 pub use state::{FrameLine, ModelView, Playback, Recording, ViewState};
 
 /// Seconds of statistics the panel's plot shows.

@@ -23,6 +23,46 @@ pub struct Loaded {
     pub radius: f32,
     /// Read from the cache rather than built.
     pub cached: bool,
+    /// A tree flown from its file, not read whole (see [`stream_trees_within`]): its hierarchy
+    /// is the part read so far, and changes as pages arrive.
+    pub streamed: Option<Box<crate::refine::Streamed>>,
+}
+
+/// The memory (bytes) within which the viewer streams paged trees it opens from now on, instead
+/// of reading them whole (`vunify view --cache SIZE`); `None`: read whole.
+static STREAM_WITHIN: std::sync::Mutex<Option<u64>> = std::sync::Mutex::new(None);
+
+/// Streams the paged trees opened from now on within `budget` bytes (see `vunify view --cache`),
+/// or reads them whole (`None`).
+pub fn stream_trees_within(budget: Option<u64>) {
+    *STREAM_WITHIN.lock().unwrap_or_else(|e| e.into_inner()) = budget;
+}
+
+/// A paged tree opened for streaming within `budget` bytes: its pages take a third, the
+/// runtime's hierarchy over them the rest.
+fn load_streamed(path: &Path, metric: Metric, budget: u64) -> Result<Loaded, String> {
+    let streamed = crate::refine::Streamed::open(path, budget / 3, Default::default())
+        .map_err(|e| e.to_string())?;
+    crate::vtree::check_viewable_diagonal(streamed.hierarchy().diagonal)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let file = crate::vtree::PagedFile::open(path).map_err(|e| e.to_string())?;
+    let (center, radius) = streamed.sphere();
+    Ok(Loaded {
+        path: path.to_path_buf(),
+        metric,
+        tree: TreeFacts {
+            triangles: file.triangles as usize,
+            leaf_count: file.leaf_count,
+            parts: file.parts.len(),
+            build_order: Vec::new(),
+            vanish_offsets: Vec::new(),
+        },
+        hierarchy: streamed.hierarchy_arc(),
+        center,
+        radius: radius.max(f32::MIN_POSITIVE),
+        cached: false,
+        streamed: Some(Box::new(streamed)),
+    })
 }
 
 pub enum LoadMessage {
@@ -143,6 +183,11 @@ pub fn load(
             "building the vertex tree",
         )
     };
+    let within = *STREAM_WITHIN.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(budget) = within.filter(|_| path.extension().is_some_and(|e| e == "vtree")) {
+        progress(0.5, "opening the tree's pages");
+        return load_streamed(path, metric, budget);
+    }
     let (tree, cached) = if vtree::is_tree_file(path) {
         (
             vtree::load_or_build(path, &options, &mut build_progress).map_err(|e| e.to_string())?,
@@ -213,6 +258,7 @@ fn ready(path: &Path, metric: Metric, mut tree: VertexTree, cached: bool) -> Loa
         center: (lo + hi) * 0.5,
         radius: ((hi - lo).length() * 0.5).max(f32::MIN_POSITIVE),
         cached,
+        streamed: None,
     }
 }
 

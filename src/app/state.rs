@@ -12,6 +12,8 @@ pub struct FrameLine {
     pub upload_bytes: u64,
     pub ui_ms: f64,
     pub stats: FrameStats,
+    /// A streamed tree's cache after the frame.
+    pub cache: Option<crate::refine::CacheStats>,
 }
 
 pub struct Playback {
@@ -64,10 +66,18 @@ pub struct ModelView {
     pub loaded: Loaded,
     pub refiner: Refiner,
     pub renderer: Renderer,
+    /// The front of a streamed tree (then `refiner` is unused, and `loaded.hierarchy` is the
+    /// part read so far).
+    pub streamed: Option<Box<crate::refine::Streamed>>,
 }
 
 /// Makes a loaded model the one on view.
-pub(super) fn install(gfx: &Gfx, view: &mut ViewState, loaded: Loaded, settings: &ViewerSettings) {
+pub(super) fn install(
+    gfx: &Gfx,
+    view: &mut ViewState,
+    mut loaded: Loaded,
+    settings: &ViewerSettings,
+) {
     let mut renderer = Renderer::new(&gfx.gpu.device, gfx.scene_format);
     renderer.set_hierarchy(&gfx.gpu.device, &gfx.gpu.queue, &loaded.hierarchy);
     view.controls.frame(loaded.center, loaded.radius);
@@ -90,10 +100,15 @@ pub(super) fn install(gfx: &Gfx, view: &mut ViewState, loaded: Loaded, settings:
     view.error = None;
     view.compare = None;
     view.frozen = None;
+    let mut streamed = loaded.streamed.take();
+    if let Some(s) = &mut streamed {
+        s.set_settings(refine_settings(settings, view.hold.scale()));
+    }
     view.model = Some(ModelView {
         loaded,
         refiner,
         renderer,
+        streamed,
     });
 }
 

@@ -375,6 +375,28 @@ fn stats_section(ui: &mut Ui, view: &mut ViewState) {
         row("splits / unifies", format!("{} / {}", s.splits, s.unifies));
         row("visited", s.visited.to_string());
         row("refine", format!("{:.2} ms", s.refine_secs * 1e3));
+        if let Some(c) = last.cache {
+            let first = view.history.front().and_then(|f| f.cache).unwrap_or(c);
+            let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+            row(
+                "tree cache",
+                format!("{:.0} / {:.0} MiB", mib(c.resident_bytes), mib(c.budget)),
+            );
+            row(
+                "pages",
+                format!(
+                    "{} resident, {} pending, {:.1} MB/s{}",
+                    c.resident_pages,
+                    c.pending,
+                    (c.loaded_bytes - first.loaded_bytes) as f64 / 1e6 / span,
+                    if c.failed > 0 {
+                        format!(", {} unreadable", c.failed)
+                    } else {
+                        String::new()
+                    }
+                ),
+            );
+        }
         row(
             "upload",
             format!("{:.2} ms, {} bytes", last.upload_ms, last.upload_bytes),

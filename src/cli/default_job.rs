@@ -13,7 +13,7 @@ const BUNDLED_MODEL: &[u8] = include_bytes!("../../assets/WaterBottle.glb");
 const BUNDLED_NAME: &str = "WaterBottle.glb";
 
 /// Where the default job writes: `out/` in the current directory.
-fn out_dir() -> PathBuf {
+pub fn out_dir() -> PathBuf {
     PathBuf::from("out")
 }
 

@@ -63,7 +63,7 @@ pub struct RenderArgs {
     /// Without it, a paged tree too large to read whole in half of this machine's memory is
     /// streamed within an eighth of it (at least 256 MiB, at most 1 GiB).
     #[arg(long, value_name = "SIZE", value_parser = super::build::parse_memory, conflicts_with_all = ["compare", "full", "strict"])]
-    cache: Option<u64>,
+    pub cache: Option<u64>,
     /// Print the summary as JSON instead of text: the medians and 95th percentiles of refinement,
     /// GPU and frame times, triangles, image error with --compare, seconds to the first frame
     /// (`first_frame_s`), the longest frame (`max_frame_ms`) and the peak resident memory

@@ -22,6 +22,12 @@ pub struct ViewArgs {
     /// Window size, WIDTHxHEIGHT (default: the last one used).
     #[arg(long, value_parser = super::parse_size)]
     size: Option<[u32; 2]>,
+    /// Stream the tree from its file instead of reading it whole, within SIZE of memory (e.g.
+    /// 256M, 1G; see `vunify render --help`): the panel shows the cache, and the front sharpens
+    /// where pages arrive. Without it, a paged tree too large to read whole in half of this
+    /// machine's memory is streamed within an eighth of it (256 MiB to 1 GiB).
+    #[arg(long, value_name = "SIZE", value_parser = super::build::parse_memory)]
+    cache: Option<u64>,
 }
 
 /// What the window runs, if not interactive.
@@ -39,7 +45,23 @@ pub fn run(args: ViewArgs) -> Result<()> {
         Some(m) => m,
         None => super::default_job::bundled_model()?,
     };
-    super::warn_if_too_large_to_view(&model);
+    let streaming = args.cache.or_else(|| super::stream_by_default(&model));
+    if streaming.is_none() {
+        super::warn_if_too_large_to_view(&model);
+    }
+    if !super::has_display() && streaming.is_some() {
+        println!(
+            "vunify: no display (DISPLAY and WAYLAND_DISPLAY are unset); rendering the default camera path \
+             headless instead"
+        );
+        let mut render = super::render::RenderArgs::defaults_for(model);
+        render.cache = streaming;
+        render.out = super::default_job::out_dir().join("default-path");
+        render.every = 30;
+        return super::render::run(render);
+    }
+    #[cfg(feature = "viewer")]
+    vunify::app::stream_trees_within(streaming);
     if !super::has_display() {
         println!(
             "vunify: no display (DISPLAY and WAYLAND_DISPLAY are unset); rendering the default camera path \

@@ -32,7 +32,7 @@ impl PageSource for PagedFile {
 }
 
 /// What the cache holds and has done, for the panel and `render`'s statistics.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct CacheStats {
     pub resident_bytes: u64,
     pub budget: u64,
@@ -41,6 +41,8 @@ pub struct CacheStats {
     pub pending: usize,
     /// Pages that arrived, evicted, and could not be read, since the cache opened.
     pub loaded: u64,
+    /// The bytes of the pages that arrived, decoded, since the cache opened.
+    pub loaded_bytes: u64,
     pub evicted: u64,
     pub failed: u64,
 }
@@ -233,6 +235,7 @@ impl PageCache {
             Ok(p) => {
                 let bytes = p.bytes();
                 self.stats.loaded += 1;
+                self.stats.loaded_bytes += bytes;
                 self.stats.resident_bytes += bytes;
                 self.stats.resident_pages += 1;
                 Slot::Resident {
@@ -307,6 +310,7 @@ impl PageCache {
         self.clock += 1;
         let bytes = decoded.bytes();
         self.stats.loaded += 1;
+        self.stats.loaded_bytes += bytes;
         self.stats.resident_bytes += bytes;
         self.stats.resident_pages += 1;
         self.slots[page as usize] = Slot::Resident {

@@ -59,7 +59,7 @@ pub enum StreamError {
 
 /// The part of the tree read so far, as the runtime reads it.
 pub struct Part {
-    pub h: Hierarchy,
+    pub h: Arc<Hierarchy>,
     /// Per leaf of `h` and one more, the first leaf of the whole tree under it (the last entry
     /// is the whole tree's leaf count): a node's leaves in the whole tree are
     /// `leaf_first[lo]..leaf_first[hi]` for its range `lo..hi` in the part.
@@ -392,7 +392,7 @@ fn build_part(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<(Part, b
             .map(|(x, s)| if s.is_some() { turn_bound(x) } else { 0.0 })
             .collect(),
     };
-    let h = Hierarchy::of_part(tree, &whole);
+    let h = Arc::new(Hierarchy::of_part(tree, &whole));
     let (used, page_start, page_nodes) = nodes_by_page(&page);
     Some((
         Part {
@@ -598,6 +598,17 @@ impl Streamed {
     /// The hierarchy the front is a cut of now.
     pub fn hierarchy(&self) -> &Hierarchy {
         &self.part.h
+    }
+
+    /// [`Streamed::hierarchy`], shared.
+    pub fn hierarchy_arc(&self) -> Arc<Hierarchy> {
+        self.part.h.clone()
+    }
+
+    /// The runtime's settings from now on.
+    pub fn set_settings(&mut self, settings: Settings) {
+        self.settings = settings;
+        self.refiner.settings = settings;
     }
 
     pub fn part(&self) -> &Part {
