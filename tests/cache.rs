@@ -284,3 +284,40 @@ fn eviction_keeps_the_budget_and_the_pinned() {
     assert!(s.resident_bytes <= budget, "{s:?}");
     assert_eq!(s.loaded - s.evicted, s.resident_pages as u64);
 }
+
+/// Version 6 records at every internal node how far normals turn below it (the largest angle
+/// between a node's normal and a child's in its subtree, which the runtime's shading term
+/// weighs), rounded up to a 255th of a right angle: what a page read alone says is what the
+/// whole tree's normals give, never less and at most one step more.
+#[test]
+fn every_page_knows_how_far_normals_turn_below_its_nodes() {
+    let dir = temp();
+    let (tree, path) = paged_tree(dir.path());
+    let n = tree.leaf_count as usize;
+    let mut turn = vec![0f32; tree.nodes.len()];
+    for u in n..tree.nodes.len() {
+        let normal = glam::Vec3::from_array(tree.nodes[u].normal);
+        for c in tree.nodes[u].children {
+            let cn = glam::Vec3::from_array(tree.nodes[c as usize].normal);
+            let angle = normal.dot(cn).clamp(-1.0, 1.0).acos();
+            turn[u] = turn[u].max(angle).max(turn[c as usize]);
+        }
+    }
+    let file = PagedFile::open(&path).unwrap();
+    assert_eq!(file.version, 6);
+    let step = std::f32::consts::FRAC_PI_2 / 255.0;
+    let mut turning = 0;
+    for p in 0..file.entries.len() {
+        let page = file.read_page(p).unwrap();
+        assert_eq!(page.turns.len(), page.ids.len());
+        for (&id, &stored) in page.ids.iter().zip(&page.turns) {
+            let want = turn[id as usize].min(std::f32::consts::FRAC_PI_2);
+            assert!(
+                stored >= want && stored <= want + step + 1e-4,
+                "node {id}: {stored} for {want}"
+            );
+            turning += usize::from(want > 0.01);
+        }
+    }
+    assert!(turning > 100, "{turning} nodes turn");
+}

@@ -89,7 +89,7 @@ fn build_info_extract_measure() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--bound must be"));
 }
 
-/// `vunify build` writes the paged file (version 5) unless told `--exact` (version 1 here, no
+/// `vunify build` writes the paged file (version 6) unless told `--exact` (version 1 here, no
 /// appearance): at most 32 bytes a triangle against about 98, the position error stated by
 /// `info`, and the same levels extracted from both.
 #[test]
@@ -120,7 +120,7 @@ fn build_writes_paged_files_unless_exact() {
     let text = ok(&vunify(&["info", p]));
     assert!(text.contains("stored     paged"), "{text}");
     assert!(
-        text.contains("format     version 5: leaves numbered depth-first"),
+        text.contains("format     version 6: leaves numbered depth-first"),
         "{text}"
     );
     // A version 4 file (before leaves were numbered depth-first) reads, and says so.

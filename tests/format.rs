@@ -328,7 +328,7 @@ fn angle(a: glam::Vec3, b: glam::Vec3) -> f32 {
 fn paged_round_trip_keeps_links_and_widens_every_bound() {
     let tree = paged_tree();
     let bytes = vtree::to_bytes_with(&tree, vtree::Encoding::Paged);
-    assert_eq!(bytes[8..12], 5u32.to_le_bytes());
+    assert_eq!(bytes[8..12], 6u32.to_le_bytes());
     let back = vtree::read_bytes(&bytes, Path::new("p.vtree")).unwrap();
     // The leaves depth-first, so that every node's leaves are a range; all else as built.
     assert!(leaf_ranges(&tree).is_none());

@@ -14,7 +14,7 @@ use vunify::refine::validation::check_refiner;
 use vunify::refine::{Camera, Front, Hierarchy, PageSource, Refiner, Settings, Streamed, Tests};
 use vunify::vtree::{self, BuildOptions, DecodedPage, FormatError, PagedFile};
 
-/// A wavy 120 × 120 grid's tree (about 28,000 nodes, nine pages), written paged to a fresh
+/// A wavy 120 × 120 grid's tree (about 28,000 nodes, nine pages, all read before the first frame), written paged to a fresh
 /// file in `dir`, with the whole tree's hierarchy as the whole file's reader gives it.
 fn paged_tree(dir: &Path) -> (Hierarchy, PathBuf) {
     paged_grid(dir, 120)
@@ -211,7 +211,7 @@ impl PageSource for Shuffled {
 #[test]
 fn pages_arriving_in_any_order_keep_every_frame_valid() {
     let dir = tempfile::tempdir().unwrap();
-    let (whole, path) = paged_tree(dir.path());
+    let (whole, path) = paged_grid(dir.path(), 240);
     for seed in [1, 2, 3] {
         let file = Arc::new(PagedFile::open(&path).unwrap());
         let source = Arc::new(Shuffled {
@@ -219,7 +219,7 @@ fn pages_arriving_in_any_order_keep_every_frame_valid() {
             delay: Mutex::new(Rng(seed)),
         });
         let mut streamed = Streamed::with_source(file, source, u64::MAX, settings(true)).unwrap();
-        let cameras = fly_in(120, seed);
+        let cameras = fly_in_at(120, seed, [640, 480], 240.0, Vec3::new(0.5, 0.5, 0.0));
         for camera in &cameras {
             streamed.update(camera);
             check_refiner(streamed.hierarchy(), streamed.refiner()).unwrap();

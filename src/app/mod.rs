@@ -37,8 +37,8 @@ use winit::window::{Window, WindowId};
 
 use draw::*;
 use frame::*;
-use state::*;
 pub use model::stream_trees_within;
+use state::*;
 pub use state::{FrameLine, ModelView, Playback, Recording, ViewState};
 
 /// Seconds of statistics the panel's plot shows.

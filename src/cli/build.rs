@@ -76,7 +76,7 @@ pub struct BuildArgs {
     #[arg(long)]
     no_weld: bool,
     /// Write every node exactly as built (84 bytes of f32s, format version 1 to 3) instead of the
-    /// default paged file (version 5: pages of a few thousand nodes, each checksummed; positions,
+    /// default paged file (version 6: pages of a few thousand nodes, each checksummed; positions,
     /// bounds and errors quantised, with every error and bound widened by what quantising moved;
     /// about a third of the size).
     #[arg(long)]

@@ -145,8 +145,15 @@ pub fn run(args: InfoArgs) -> Result<()> {
     println!(
         "format     version {version}{}",
         match version {
-            5.. => ": leaves numbered depth-first, each page knows the leaves under its nodes",
-            4 => ": leaves in the input's order (rebuild with `vunify build` for version 5)",
+            6.. => {
+                ": leaves numbered depth-first, each page knows the leaves under its nodes and how \
+                 far normals turn below them"
+            }
+            5 => {
+                ": leaves numbered depth-first, each page knows the leaves under its nodes \
+                 (rebuild with `vunify build` for version 6, which a streamed view refines exactly)"
+            }
+            4 => ": leaves in the input's order (rebuild with `vunify build` for version 6)",
             _ => "",
         }
     );

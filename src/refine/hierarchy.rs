@@ -55,6 +55,9 @@ pub struct Hierarchy {
     /// colours are drawn unlit by default.
     pub one_sided: bool,
     pub diagonal: f32,
+    /// For the part of a tree read so far (see [`Hierarchy::of_part`]), per leaf the error of
+    /// the subtree it stands for (0 for a leaf of the whole tree); empty for a whole tree.
+    pub stand_in_error: Vec<f32>,
 }
 
 /// A tree's wedges as the runtime reads them (see [`crate::vtree::Wedges`]): renumbered so that
@@ -334,6 +337,7 @@ impl Hierarchy {
             inward,
             one_sided: tree.one_sided,
             diagonal,
+            stand_in_error: Vec::new(),
         }
     }
 
@@ -386,6 +390,15 @@ impl Hierarchy {
             0.0
         } else {
             self.internal_bounds[(u - self.leaf_count) as usize].error
+        }
+    }
+
+    /// The error a node is drawn with where it stands: [`Hierarchy::error`], or for a leaf that
+    /// stands for a subtree not read yet, that subtree's (what `--color-by error` shows).
+    pub fn drawn_error(&self, u: u32) -> f32 {
+        match self.stand_in_error.get(u as usize) {
+            Some(&e) if u < self.leaf_count => e,
+            _ => self.error(u),
         }
     }
 

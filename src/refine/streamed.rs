@@ -187,9 +187,56 @@ struct Walk {
     internal: Vec<At>,
     /// Per leaf, whether it stands for a subtree not read, and then the pages it wants.
     stand_in: Vec<Option<[u32; 2]>>,
+    /// Per leaf, how far normals turn below it (0 for a leaf of the whole tree).
+    turn: Vec<f32>,
 }
 
-fn walk(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<Walk> {
+/// How far normals turn below node `i` of `page`: as the page records it (version 6), else
+/// bounded from the node's normal cone.
+fn turn_at(page: &DecodedPage, i: usize) -> f32 {
+    page.turns
+        .get(i)
+        .copied()
+        .unwrap_or_else(|| turn_bound(&page.nodes[i]))
+}
+
+/// What a part needs of the resident pages: the nodes on and above the front it starts from, and
+/// below those only the ones the view may split soon; the rest of a resident page stays out of
+/// it until the view wants it (see [`Trim::expands`]). Without it a part is every resident node.
+#[derive(Clone)]
+struct Trim {
+    view: View,
+    tests: super::Tests,
+    /// τ over [`TRIM_MARGIN`]: a node whose projected error is below it stays a stand-in.
+    tau: f32,
+    /// The front's nodes' leaves in the whole tree, in order.
+    cut: Vec<[u32; 2]>,
+    inward: bool,
+}
+
+/// How much finer than τ a part reaches below the front: the camera may come this many times
+/// closer before the front needs a new part to refine further.
+const TRIM_MARGIN: f32 = 4.0;
+
+impl Trim {
+    /// Whether the part takes in the children of `node`, whose leaves are `leaves`.
+    fn expands(&self, node: &Node, turn: f32, leaves: [u32; 2]) -> bool {
+        // Above the front: the front node holding its first leaf is smaller than it.
+        let k = self.cut.partition_point(|c| c[1] <= leaves[0]);
+        if self
+            .cut
+            .get(k)
+            .is_some_and(|c| c[1] < leaves[1] || c[0] > leaves[0])
+        {
+            return true;
+        }
+        let bounds = stand_in_bounds(node, turn, self.inward);
+        let n = self.tests.view_of(&bounds, node.position());
+        self.tests.projected(&self.view, &n) > self.tau
+    }
+}
+
+fn walk(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)], trim: Option<&Trim>) -> Option<Walk> {
     let slot_of: FxHashMap<u32, usize> = pages
         .iter()
         .enumerate()
@@ -210,27 +257,34 @@ fn walk(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<Walk> {
         leaves: Vec::new(),
         internal: Vec::new(),
         stand_in: Vec::new(),
+        turn: Vec::new(),
     };
     let mut stack = vec![find(root, root_slot)?];
     while let Some((s, i)) = stack.pop() {
         if pages[s].1.ids[i] < meta.leaf_count {
             out.leaves.push((s, i));
             out.stand_in.push(None);
+            out.turn.push(0.0);
             continue;
         }
-        let children = pages[s].1.nodes[i].children;
+        let turn = turn_at(&pages[s].1, i);
+        let (node, leaves) = (&pages[s].1.nodes[i], pages[s].1.leaves[i]);
+        let children = node.children;
         let found = children.map(|c| find(c, s));
-        if let [Some(c0), Some(c1)] = found {
+        let expands = trim.is_none_or(|t| t.expands(node, turn, leaves));
+        if let ([Some(c0), Some(c1)], true) = (found, expands) {
             out.internal.push((s, i));
             stack.push(c1);
             stack.push(c0);
         } else {
             out.leaves.push((s, i));
+            // The pages its children are in (read, or to be read).
             let want = |k: usize| match found[k] {
-                Some(_) => NONE,
+                Some((c, _)) => pages[c].0,
                 None => meta.page_of_root.get(&children[k]).copied().unwrap_or(NONE),
             };
             out.stand_in.push(Some([want(0), want(1)]));
+            out.turn.push(turn);
         }
     }
     Some(out)
@@ -364,8 +418,12 @@ fn nodes_by_page(page: &[u32]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
 
 /// Builds the part of the tree that `pages` hold (which must include the root's page), and
 /// says whether it winds inward (as given, or guessed from the part).
-fn build_part(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<(Part, bool)> {
-    let walk = walk(meta, pages)?;
+fn build_part(
+    meta: &Meta,
+    pages: &[(u32, Arc<DecodedPage>)],
+    trim: Option<&Trim>,
+) -> Option<(Part, bool)> {
+    let walk = walk(meta, pages, trim)?;
     let (tree, page_of_tree, leaf_first) = assemble(meta, pages, &walk);
     let renumber = Hierarchy::renumbering(&tree);
     let inward = meta.inward.unwrap_or_else(|| tree.winds_inward());
@@ -374,7 +432,7 @@ fn build_part(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<(Part, b
             let node = &tree.nodes[j];
             wants.map(|wants| StandIn {
                 leaf: renumber[j],
-                bounds: stand_in_bounds(node, turn_bound(node), inward),
+                bounds: stand_in_bounds(node, walk.turn[j], inward),
                 center: node.position(),
                 wants,
             })
@@ -388,11 +446,14 @@ fn build_part(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<(Part, b
     let whole = Whole {
         inward,
         diagonal: meta.diagonal,
-        leaf_turn: (tree.nodes.iter().zip(&walk.stand_in))
-            .map(|(x, s)| if s.is_some() { turn_bound(x) } else { 0.0 })
-            .collect(),
+        leaf_turn: walk.turn.clone(),
     };
-    let h = Arc::new(Hierarchy::of_part(tree, &whole));
+    let mut h = Hierarchy::of_part(tree, &whole);
+    h.stand_in_error = vec![0.0; h.leaf_count as usize];
+    for s in &stand_ins {
+        h.stand_in_error[s.leaf as usize] = s.bounds.error;
+    }
+    let h = Arc::new(h);
     let (used, page_start, page_nodes) = nodes_by_page(&page);
     Some((
         Part {
@@ -414,13 +475,14 @@ fn build_part(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)]) -> Option<(Part, b
 const FIRST_NODES: usize = 1 << 15;
 
 /// The pages nearest the root (level by level, each level read on every core) until they hold
-/// [`FIRST_NODES`].
+/// [`FIRST_NODES`]. One that cannot be read is left out here: the cache reports it when the view
+/// asks for it.
 fn first_pages(
     file: &PagedFile,
     page_of_root: &FxHashMap<u32, u32>,
     root_page: u32,
     root: DecodedPage,
-) -> Result<Vec<(u32, Arc<DecodedPage>)>, FormatError> {
+) -> Vec<(u32, Arc<DecodedPage>)> {
     use rayon::prelude::*;
     let mut pages = vec![(root_page, Arc::new(root))];
     let mut level = vec![0usize];
@@ -436,16 +498,16 @@ fn first_pages(
                     .collect::<Vec<_>>()
             })
             .collect();
-        let read: Vec<DecodedPage> = (below.par_iter())
-            .map(|&p| file.read_page(p as usize))
-            .collect::<Result<_, _>>()?;
+        let read: Vec<(u32, DecodedPage)> = (below.par_iter())
+            .filter_map(|&p| Some((p, file.read_page(p as usize).ok()?)))
+            .collect();
         level = (pages.len()..pages.len() + read.len()).collect();
-        for (p, page) in below.into_iter().zip(read) {
+        for (p, page) in read {
             nodes += page.ids.len();
             pages.push((p, Arc::new(page)));
         }
     }
-    Ok(pages)
+    pages
 }
 
 /// A part being built on another thread, with the front it will start from.
@@ -472,6 +534,8 @@ pub struct Streamed {
     arrived: Vec<u32>,
     /// A part was taken in since the front was last pinned.
     taken: bool,
+    /// The last frame's camera and τ: what the next part is trimmed for.
+    seen: Option<(Camera, f32)>,
     /// A page the view wants is resident but not in the part: the next part should have it.
     stale: bool,
     failures: Vec<(u32, FormatError)>,
@@ -560,9 +624,8 @@ impl Streamed {
                 (Vec3::from_slice(&n.sphere), n.sphere[3])
             }),
         };
-        let pages = first_pages(&file, &meta.page_of_root, root_page, root)
-            .map_err(|e| StreamError::Root(name.clone(), e.to_string()))?;
-        let (part, inward) = build_part(&meta, &pages).ok_or_else(|| {
+        let pages = first_pages(&file, &meta.page_of_root, root_page, root);
+        let (part, inward) = build_part(&meta, &pages, None).ok_or_else(|| {
             StreamError::Root(name, "the root's page does not hold the root".into())
         })?;
         meta.inward = Some(inward);
@@ -582,6 +645,7 @@ impl Streamed {
             arriving: Vec::new(),
             arrived: Vec::new(),
             taken: false,
+            seen: None,
             stale: false,
             failures: Vec::new(),
             parts: 1,
@@ -650,6 +714,7 @@ impl Streamed {
     pub fn update(&mut self, camera: &Camera) -> StreamFrame {
         let new_part = self.take_part(false);
         let stats = self.refiner.update(&self.part.h, camera);
+        self.seen = Some((*camera, stats.tolerance_px));
         if std::mem::take(&mut self.taken) {
             // The front has stepped into the new part's pages it wants: the others may go.
             for p in self.arrived.drain(..) {
@@ -740,20 +805,28 @@ impl Streamed {
                 self.arriving.push(p);
             }
         }
-        let cut: Vec<[u32; 2]> = self
+        let mut cut: Vec<[u32; 2]> = self
             .refiner
             .front
             .active()
             .into_iter()
             .map(|u| self.part.whole_range(u))
             .collect();
+        cut.sort_unstable();
+        let trim = self.seen.map(|(camera, tau)| Trim {
+            view: View::new(&camera),
+            tests: self.settings.tests,
+            tau: tau / TRIM_MARGIN,
+            cut: cut.clone(),
+            inward: self.meta.inward.unwrap_or(false),
+        });
         let (meta, settings) = (self.meta.clone(), self.settings);
         let (send, receive) = channel();
         self.building = Some(receive);
         std::thread::Builder::new()
             .name("vunify-part".into())
             .spawn(move || {
-                let built = build_part(&meta, &pages).map(|(part, _)| {
+                let built = build_part(&meta, &pages, trim.as_ref()).map(|(part, _)| {
                     let at = part.cut_at(&cut);
                     let front = Front::at_cut(&part.h, &at).expect("a cut of the part");
                     let refiner = Refiner::starting_from(&part.h, front, settings);
@@ -777,7 +850,10 @@ impl Streamed {
             if tests.sees(&view, &n) {
                 let px = tests.projected(&view, &n);
                 if px > tau {
-                    wanted.extend(s.wants.into_iter().filter(|&p| p != NONE).map(|p| (p, px)));
+                    let wants = s.wants.into_iter().filter(|&p| p != NONE);
+                    // All there: the next part splits it (a page that cannot be read never is).
+                    self.stale |= wants.clone().all(|p| self.cache.is_resident(p));
+                    wanted.extend(wants.map(|p| (p, px)));
                 }
             }
         }
@@ -793,8 +869,7 @@ impl Streamed {
             let Some(page) = self.cache.get(p) else {
                 continue;
             };
-            self.stale = true;
-            for (&id, node) in page.ids.iter().zip(&page.nodes) {
+            for (i, (&id, node)) in page.ids.iter().zip(&page.nodes).enumerate() {
                 if id < self.meta.leaf_count {
                     continue;
                 }
@@ -804,7 +879,7 @@ impl Streamed {
                 if outside == [None, None] {
                     continue;
                 }
-                let bounds = stand_in_bounds(node, turn_bound(node), inward);
+                let bounds = stand_in_bounds(node, turn_at(&page, i), inward);
                 let n = tests.view_of(&bounds, node.position());
                 let px = tests.projected(&view, &n);
                 if px > tau && tests.sees(&view, &n) {

@@ -328,7 +328,7 @@ impl Renderer {
         );
         let debug: Vec<Debug> = (0..h.node_count())
             .map(|u| Debug {
-                error: h.error(u),
+                error: h.drawn_error(u),
                 depth: depth[u as usize],
             })
             .collect();

@@ -19,7 +19,7 @@ pub const MAGIC: [u8; 8] = *b"VUNIFYVT";
 /// exact file is version 3 with wedges (the optional `WEDG` section, per-corner appearance), 2
 /// with appearance but no wedges (the optional `UVTX`, `TEXS` and `MATL` sections), else 1,
 /// which readers from before appearance read too.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// The version of an exact tree with wedges (see [`Encoding::Exact`]).
 const WEDGE_VERSION: u32 = 3;
 /// The oldest version this build reads.
@@ -439,6 +439,7 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<VertexTree, FormatError> 
             scale,
             colors: flags & FLAG_NODE_COLORS != 0,
             roots: roots.as_ref(),
+            turns: version >= super::paged::TURN_VERSION,
         };
         let (n, t, o) = super::paged::decode_all(&cx, &entries, data, data_at)?;
         if t.len() != tris as usize {
@@ -553,6 +554,7 @@ pub fn read_pages(bytes: &[u8], path: &Path) -> Result<Vec<super::PageNodes>, Fo
         scale,
         colors: m.u32(16) & FLAG_NODE_COLORS != 0,
         roots: roots.as_ref(),
+        turns: version >= super::paged::TURN_VERSION,
     };
     entries
         .iter()

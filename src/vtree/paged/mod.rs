@@ -47,6 +47,46 @@ pub const DIRECTORY_ENTRY: usize = 32;
 pub const DIRECTORY_ENTRY_V4: usize = 24;
 /// The first version whose leaves are numbered depth-first.
 pub const DEPTH_FIRST_VERSION: u32 = 5;
+/// The first version whose internal nodes record how far normals turn below them (see
+/// [`subtree_turns`]).
+pub const TURN_VERSION: u32 = 6;
+
+/// Per node, the largest angle between a node's normal and a child's anywhere in its subtree
+/// (0 for a leaf): what the runtime's shading term weighs (see `refine::Hierarchy`), recorded so
+/// that a reader of part of the tree knows it for a node whose subtree it has not read. Taken
+/// between the normals as the pages store them, which is what every reader sees.
+pub fn subtree_turns(tree: &VertexTree) -> Vec<f32> {
+    let stored = |u: u32| {
+        let n = glam::Vec3::from_array(tree.nodes[u as usize].normal);
+        codes::normal_of(codes::normal_bytes(n))
+    };
+    let mut turn = vec![0f32; tree.nodes.len()];
+    for u in tree.leaf_count..tree.nodes.len() as u32 {
+        let n = stored(u);
+        let mut t = 0f32;
+        for c in tree.nodes[u as usize].children {
+            let cn = stored(c);
+            if n != glam::Vec3::ZERO && cn != glam::Vec3::ZERO {
+                t = t.max(n.dot(cn).clamp(-1.0, 1.0).acos());
+            }
+            t = t.max(turn[c as usize]);
+        }
+        turn[u as usize] = t;
+    }
+    turn
+}
+
+/// A turn as a page stores it: a byte, in 255ths of a right angle, rounded up (the runtime
+/// weighs no turn beyond a right angle).
+pub fn turn_code(turn: f32) -> u8 {
+    let share = (turn / std::f32::consts::FRAC_PI_2).clamp(0.0, 1.0);
+    (share * 255.0).next_up().ceil().min(255.0) as u8
+}
+
+/// The turn a stored byte stands for: never less than the turn coded.
+pub fn turn_of_code(code: u8) -> f32 {
+    (code as f32 / 255.0 * std::f32::consts::FRAC_PI_2).next_up()
+}
 
 /// A page's place in the file and what it holds.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -42,6 +42,8 @@ pub struct PagedFile {
     /// materials, wedges), which this reader does not read.
     pub appearance: bool,
     pub entries: Vec<PageEntry>,
+    /// The file's format version (4 and up).
+    pub version: u32,
     /// Version 5's leaves of each page's root (`None` in a version 4 file).
     roots: Option<RootLeaves>,
     /// Where `PDAT` begins in the file.
@@ -143,6 +145,7 @@ impl PagedFile {
             appearance,
             roots: RootLeaves::of(&entries),
             entries,
+            version,
             data_at,
         })
     }
@@ -198,6 +201,7 @@ impl PagedFile {
             scale: self.scale,
             colors: self.colors,
             roots: self.roots.as_ref(),
+            turns: self.version >= super::TURN_VERSION,
         };
         decode_page(&cx, page, entry, &bytes, at)
     }

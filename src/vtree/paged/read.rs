@@ -22,6 +22,9 @@ pub struct DecodedPage {
     /// Per node, the leaves under it, `[first, past the last)`, with the file's leaves numbered
     /// depth-first (version 5; empty for version 4).
     pub leaves: Vec<[u32; 2]>,
+    /// Per node, how far normals turn below it (see [`super::subtree_turns`]; 0 for a leaf,
+    /// rounded up), from version 6; empty before.
+    pub turns: Vec<f32>,
 }
 
 impl DecodedPage {
@@ -31,7 +34,8 @@ impl DecodedPage {
             + self.nodes.len() * std::mem::size_of::<Node>()
             + self.counts.len() * 4
             + self.triangles.len() * 12
-            + self.leaves.len() * 8) as u64
+            + self.leaves.len() * 8
+            + self.turns.len() * 4) as u64
     }
 }
 
@@ -120,6 +124,8 @@ pub struct PageContext<'a> {
     pub colors: bool,
     /// Version 5's leaves of each page's root (`None` for version 4).
     pub roots: Option<&'a RootLeaves>,
+    /// Internal nodes record their subtree's turn (version 6).
+    pub turns: bool,
 }
 
 /// Decodes page `page` (`bytes`, at `base` in the file, with `entry`), checking its checksum,
@@ -167,6 +173,7 @@ pub fn decode_page(
         counts: Vec::new(),
         triangles: Vec::new(),
         leaves: Vec::new(),
+        turns: Vec::new(),
     };
     let (mut previous, mut first_corner) = (0u64, 0i64);
     let mut children: Vec<[u64; 2]> = Vec::new();
@@ -199,8 +206,12 @@ pub fn decode_page(
             sphere: [center.x, center.y, center.z, radius],
             cone: [axis.x, axis.y, axis.z, cos],
         };
+        let mut turn = 0.0;
         if id >= cx.leaf_count as u64 {
             node.error = decode_scaled(r.u16()?, cx.scale);
+            if cx.turns {
+                turn = super::turn_of_code(r.take::<1>()?[0]);
+            }
             children.push([r.varint()?, r.varint()?]);
             let tris = r.varint()?;
             if tris > (bytes.len() - r.at) as u64 {
@@ -217,6 +228,9 @@ pub fn decode_page(
         }
         out.ids.push(id as u32);
         out.nodes.push(node);
+        if cx.turns {
+            out.turns.push(turn);
+        }
     }
     if r.at != bytes.len() {
         return Err(r.fail(&format!("{} bytes after its last node", bytes.len() - r.at)));

@@ -24,6 +24,10 @@ pub fn encode(
     let n = tree.nodes.len();
     let scale = scale_for(tree.diagonal());
     let renumber = FileIds { leaf_id: &leaf_id };
+    let turns: Vec<u8> = super::subtree_turns(tree)
+        .into_iter()
+        .map(super::turn_code)
+        .collect();
     // Each page's nodes by their ids in the file (leaves first, in depth-first order).
     let mut members: Vec<Vec<u32>> = vec![Vec::new(); roots.len()];
     for u in 0..n as u32 {
@@ -36,6 +40,13 @@ pub fn encode(
     // sphere, grown by what quantising moved, rounded up and never below a child's; then the
     // page's bytes. Pages in waves, each page's child pages in earlier waves: a wave's pages on
     // every core, each page's scattered nodes read into cache once for all three.
+    let shared = Shared {
+        page_of: &page_of,
+        renumber,
+        scale,
+        colors,
+        turns: &turns,
+    };
     let mut done = Done {
         roots: vec![Stored::default(); roots.len()],
         page_error: vec![0f32; roots.len()],
@@ -48,15 +59,7 @@ pub fn encode(
             let pages: Vec<(usize, Stored, f32, Vec<u8>)> = some
                 .par_iter()
                 .map(|&p| {
-                    let page = PageWriter::new(
-                        tree,
-                        &members[p],
-                        p as u32,
-                        &page_of,
-                        renumber,
-                        scale,
-                        colors,
-                    );
+                    let page = PageWriter::new(tree, &members[p], p as u32, shared);
                     let codes = page.codes(&done);
                     let body = page.write(&codes);
                     // The page's root is its last node (a parent's id is above its children's).
@@ -119,6 +122,8 @@ struct PageWriter<'a> {
     grid: Grid,
     scale: f32,
     colors: bool,
+    /// Every node's [`super::turn_code`], by its id in the tree.
+    turns: &'a [u8],
 }
 
 /// What the pages of earlier waves left, per page: what its parent page reads of its root (a
@@ -179,16 +184,25 @@ fn waves(tree: &VertexTree, members: &[Vec<u32>], page_of: &[u32]) -> Vec<Vec<us
     out
 }
 
+/// What every page of one file is written with.
+#[derive(Clone, Copy)]
+struct Shared<'a> {
+    page_of: &'a [u32],
+    renumber: FileIds<'a>,
+    scale: f32,
+    colors: bool,
+    turns: &'a [u8],
+}
+
 impl<'a> PageWriter<'a> {
-    fn new(
-        tree: &'a VertexTree,
-        ids: &'a [u32],
-        page: u32,
-        page_of: &'a [u32],
-        renumber: FileIds<'a>,
-        scale: f32,
-        colors: bool,
-    ) -> PageWriter<'a> {
+    fn new(tree: &'a VertexTree, ids: &'a [u32], page: u32, shared: Shared<'a>) -> PageWriter<'a> {
+        let Shared {
+            page_of,
+            renumber,
+            scale,
+            colors,
+            turns,
+        } = shared;
         let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
         for (k, &u) in ids.iter().enumerate() {
             if let Some(&ahead) = ids.get(k + 8) {
@@ -208,6 +222,7 @@ impl<'a> PageWriter<'a> {
             grid: Grid::new(lo, hi),
             scale,
             colors,
+            turns,
         }
     }
 
@@ -347,6 +362,7 @@ impl<'a> PageWriter<'a> {
                 continue;
             }
             out.extend_from_slice(&codes.errors[k].to_le_bytes());
+            out.push(self.turns[u as usize]);
             for c in node.children {
                 match self.local(c) {
                     Some(i) => put_varint(&mut out, 2 * i as u64),
