@@ -109,7 +109,7 @@ fn build_writes_paged_files_unless_exact() {
         serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap()
     };
     let (ip, ie) = (info(p), info(e));
-    assert_eq!((&ip["version"], &ie["version"]), (&5.into(), &1.into()));
+    assert_eq!((&ip["version"], &ie["version"]), (&6.into(), &1.into()));
     let triangles = 13546.0;
     let per_triangle = |i: &serde_json::Value| i["file_bytes"].as_f64().unwrap() / triangles;
     assert!(per_triangle(&ip) <= 32.0, "{}", per_triangle(&ip));

@@ -142,21 +142,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     } else {
         println!("stored     exact, {per_triangle:.1} bytes a triangle");
     }
-    println!(
-        "format     version {version}{}",
-        match version {
-            6.. => {
-                ": leaves numbered depth-first, each page knows the leaves under its nodes and how \
-                 far normals turn below them"
-            }
-            5 => {
-                ": leaves numbered depth-first, each page knows the leaves under its nodes \
-                 (rebuild with `vunify build` for version 6, which a streamed view refines exactly)"
-            }
-            4 => ": leaves in the input's order (rebuild with `vunify build` for version 6)",
-            _ => "",
-        }
-    );
+    println!("format     version {version}{}", version_note(version));
     println!(
         "attributes colours: {}, normals: {}",
         facts.colors, facts.normals
@@ -214,4 +200,20 @@ fn format_version(file: &std::path::Path) -> Result<u32> {
     let mut head = [0u8; 12];
     std::fs::File::open(file)?.read_exact(&mut head)?;
     Ok(u32::from_le_bytes([head[8], head[9], head[10], head[11]]))
+}
+
+/// What `info` says of a file's format version.
+fn version_note(version: u32) -> &'static str {
+    match version {
+        6.. => {
+            ": leaves numbered depth-first, each page knows the leaves under its nodes and how far \
+             normals turn below them"
+        }
+        5 => {
+            ": leaves numbered depth-first, each page knows the leaves under its nodes (rebuild \
+             with `vunify build` for version 6, which a streamed view refines exactly)"
+        }
+        4 => ": leaves in the input's order (rebuild with `vunify build` for version 6)",
+        _ => "",
+    }
 }
