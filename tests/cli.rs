@@ -104,7 +104,7 @@ fn build_writes_paged_files_unless_exact() {
     );
     ok(&vunify(&["build", model, "-o", e, "--exact"]));
     let version = |path: &PathBuf| std::fs::read(path).unwrap()[8];
-    assert_eq!((version(&paged), version(&exact)), (5, 1));
+    assert_eq!((version(&paged), version(&exact)), (6, 1));
     let info = |t: &str| -> serde_json::Value {
         serde_json::from_str(&ok(&vunify(&["info", t, "--check", "--json"]))).unwrap()
     };

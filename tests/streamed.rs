@@ -335,3 +335,30 @@ fn a_corrupt_page_is_reported_and_the_front_carries_on() {
     let stats = streamed.cache_stats();
     assert!(stats.loaded as usize >= pages / 2, "{stats:?}");
 }
+
+/// What `--color-by error` shows of a streamed tree: a leaf of the part that stands for a subtree
+/// not read yet draws with that subtree's error (so what waits for the disk shows), a leaf of the
+/// whole tree with none; a stand-in's leaves are many, a true leaf's one.
+#[test]
+fn stand_ins_draw_with_the_error_they_stand_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, path) = paged_grid(dir.path(), 240);
+    let streamed = Streamed::open(&path, u64::MAX, settings(true)).unwrap();
+    let (part, h) = (streamed.part(), streamed.hierarchy());
+    assert!(part.stand_ins() > 10, "{} stand-ins", part.stand_ins());
+    let mut erring = 0;
+    for u in 0..h.leaf_count {
+        let [a, b] = part.whole_range(u);
+        if part.is_stand_in(u) {
+            assert!(b - a > 1, "stand-in {u} holds {a}..{b}");
+            erring += usize::from(h.drawn_error(u) > 0.0);
+        } else {
+            assert_eq!((b - a, h.drawn_error(u)), (1, 0.0), "leaf {u}");
+        }
+    }
+    assert!(
+        erring * 10 >= part.stand_ins() * 9,
+        "{erring} of {}",
+        part.stand_ins()
+    );
+}

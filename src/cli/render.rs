@@ -52,7 +52,9 @@ pub struct RenderArgs {
     strict: bool,
     /// Surface colours: auto (the base colour texture for a textured model; baked for lit meshes
     /// from `vunify radiosity`; else vertex colours if any or grey, lit), shaded, baked (vertex
-    /// colours unlit), depth (tree depth), error (projected error: blue 0, green τ, red 2τ),
+    /// colours unlit), depth (tree depth), error (projected error: blue 0, green τ, red 2τ; on a
+    /// streamed tree a vertex standing for pages not read yet shows their error, so what waits
+    /// for the disk is red),
     /// texture, or uv (a checker over the texture coordinates, to see seams and stretch).
     #[arg(long, value_enum, default_value = "auto")]
     color_by: ColorChoice,

@@ -1,6 +1,6 @@
 //! Pages of a paged tree fetched on demand into a cache with a budget (see docs/RUNTIME.md, "A
-//! streamed tree"): the part of issue 40's streamed runtime that reads, checks and keeps pages;
-//! the front that asks for them is not built on it yet.
+//! streamed tree"): the part of the streamed runtime (`refine::streamed`) that reads, checks and
+//! keeps pages.
 //!
 //! The frame's thread asks for pages ([`PageCache::request`], with a priority: the projected
 //! error of the front entries that need the page, as Nexus orders its requests) and takes what has
