@@ -345,7 +345,7 @@ fn stand_ins_draw_with_the_error_they_stand_for() {
     let (_, path) = paged_grid(dir.path(), 240);
     let streamed = Streamed::open(&path, u64::MAX, settings(true)).unwrap();
     let (part, h) = (streamed.part(), streamed.hierarchy());
-    assert!(part.stand_ins() > 10, "{} stand-ins", part.stand_ins());
+    assert!(part.stand_ins() >= 2, "{} stand-ins", part.stand_ins());
     let mut erring = 0;
     for u in 0..h.leaf_count {
         let [a, b] = part.whole_range(u);
