@@ -43,6 +43,8 @@ pub struct CacheStats {
     pub loaded: u64,
     /// The bytes of the pages that arrived, decoded, since the cache opened.
     pub loaded_bytes: u64,
+    /// Pages of which only some nodes were kept read whole again (not counted in `loaded`).
+    pub rereads: u64,
     pub evicted: u64,
     pub failed: u64,
 }
@@ -56,6 +58,9 @@ enum Slot {
         /// The [`PageCache::clock`] when it was last asked for or read.
         used: u64,
         pins: u32,
+        /// Only some of its nodes are kept (see [`PageCache::keep_only`]), and whether it is
+        /// being read again whole (or could not be).
+        part: Option<Rereading>,
     },
     Failed,
 }
@@ -97,6 +102,15 @@ impl PartialEq for Request {
     }
 }
 impl Eq for Request {}
+
+/// A page of which only some nodes are kept: whether the whole is being read again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Rereading {
+    No,
+    Asked,
+    /// Reading it again failed: it stays as it is.
+    Failed,
+}
 
 struct Shared {
     queue: Mutex<Queue>,
@@ -157,22 +171,9 @@ impl PageCache {
             Slot::Absent => {
                 *slot = Slot::Pending;
                 self.stats.pending += 1;
-                let mut q = self.lock();
-                q.wanted.insert(page, priority.to_bits());
-                q.heap.push(Request { priority, page });
-                drop(q);
-                self.shared.wake.notify_one();
+                self.enqueue(page, priority);
             }
-            Slot::Pending => {
-                // Moved in the queue while it waits; once the reader has it, nothing to do.
-                let mut q = self.lock();
-                if let Some(bits) = q.wanted.get_mut(&page)
-                    && *bits != priority.to_bits()
-                {
-                    *bits = priority.to_bits();
-                    q.heap.push(Request { priority, page });
-                }
-            }
+            Slot::Pending => self.requeue(page, priority),
         }
     }
 
@@ -231,6 +232,34 @@ impl PageCache {
         if matches!(slot, Slot::Pending) {
             self.stats.pending -= 1;
         }
+        if let Slot::Resident {
+            page: kept,
+            bytes,
+            used,
+            part,
+            ..
+        } = slot
+        {
+            // A page read again whole replaces the part of it that was kept.
+            if *part == Some(Rereading::Asked) {
+                self.stats.pending -= 1;
+                match result {
+                    Ok(p) => {
+                        let whole = p.bytes();
+                        self.stats.rereads += 1;
+                        self.stats.loaded_bytes += whole;
+                        self.stats.resident_bytes += whole - *bytes;
+                        (*kept, *bytes, *used, *part) = (Arc::new(p), whole, self.clock, None);
+                    }
+                    Err(e) => {
+                        self.stats.failed += 1;
+                        failures.push((page, e));
+                        *part = Some(Rereading::Failed);
+                    }
+                }
+            }
+            return;
+        }
         *slot = match result {
             Ok(p) => {
                 let bytes = p.bytes();
@@ -243,6 +272,7 @@ impl PageCache {
                     bytes,
                     used: self.clock,
                     pins: 0,
+                    part: None,
                 }
             }
             Err(e) => {
@@ -276,9 +306,13 @@ impl PageCache {
             if keep(p as u32) {
                 continue;
             }
-            if let Slot::Resident { bytes, .. } =
+            if let Slot::Resident { bytes, part, .. } =
                 std::mem::replace(&mut self.slots[p], Slot::Absent)
             {
+                // Its whole, still being read, arrives into an empty slot.
+                if part == Some(Rereading::Asked) {
+                    self.stats.pending -= 1;
+                }
                 self.stats.resident_bytes -= bytes;
                 self.stats.resident_pages -= 1;
                 self.stats.evicted += 1;
@@ -318,7 +352,72 @@ impl PageCache {
             bytes,
             used: self.clock,
             pins: 0,
+            part: None,
         };
+    }
+
+    /// Keeps only `kept` of a resident page read whole (the nodes a reader uses of it; see
+    /// [`DecodedPage::keep`]), counting its bytes instead.
+    /// Nothing changes unless the page is still `was` (not let go and read again since).
+    pub fn keep_only(&mut self, page: u32, was: &Arc<DecodedPage>, kept: Arc<DecodedPage>) {
+        if let Some(Slot::Resident {
+            page: held,
+            bytes,
+            part: part @ None,
+            ..
+        }) = self.slots.get_mut(page as usize)
+            && Arc::ptr_eq(held, was)
+        {
+            let less = kept.bytes();
+            self.stats.resident_bytes -= *bytes - less.min(*bytes);
+            (*held, *bytes, *part) = (kept, less.min(*bytes), Some(Rereading::No));
+        }
+    }
+
+    /// Whether `page` is resident with all its nodes.
+    pub fn is_whole(&self, page: u32) -> bool {
+        matches!(
+            self.slots.get(page as usize),
+            Some(Slot::Resident { part: None, .. })
+        )
+    }
+
+    /// Asks for `page` whole again (it is resident with only some of its nodes kept), with
+    /// `priority`, as [`PageCache::request`] asks for a page not resident. Never waits.
+    pub fn reread(&mut self, page: u32, priority: f32) {
+        self.clock += 1;
+        let Some(Slot::Resident { part, used, .. }) = self.slots.get_mut(page as usize) else {
+            return;
+        };
+        *used = self.clock;
+        match *part {
+            Some(Rereading::No) => {
+                *part = Some(Rereading::Asked);
+                self.stats.pending += 1;
+                self.enqueue(page, priority);
+            }
+            Some(Rereading::Asked) => self.requeue(page, priority),
+            _ => {}
+        }
+    }
+
+    fn enqueue(&self, page: u32, priority: f32) {
+        let mut q = self.lock();
+        q.wanted.insert(page, priority.to_bits());
+        q.heap.push(Request { priority, page });
+        drop(q);
+        self.shared.wake.notify_one();
+    }
+
+    /// Moves a waiting page in the queue; once the reader has it, nothing to do.
+    fn requeue(&self, page: u32, priority: f32) {
+        let mut q = self.lock();
+        if let Some(bits) = q.wanted.get_mut(&page)
+            && *bits != priority.to_bits()
+        {
+            *bits = priority.to_bits();
+            q.heap.push(Request { priority, page });
+        }
     }
 
     /// Every resident page, without counting it as used.

@@ -278,10 +278,15 @@ fn walk(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)], trim: Option<&Trim>) -> 
             stack.push(c0);
         } else {
             out.leaves.push((s, i));
-            // The pages its children are in (read, or to be read).
+            // The pages its children are in (read, or to be read; its own page when only
+            // some of that page's nodes are kept).
             let want = |k: usize| match found[k] {
                 Some((c, _)) => pages[c].0,
-                None => meta.page_of_root.get(&children[k]).copied().unwrap_or(NONE),
+                None => meta
+                    .page_of_root
+                    .get(&children[k])
+                    .copied()
+                    .unwrap_or(pages[s].0),
             };
             out.stand_in.push(Some([want(0), want(1)]));
             out.turn.push(turn);
@@ -418,12 +423,34 @@ fn nodes_by_page(page: &[u32]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
 
 /// Builds the part of the tree that `pages` hold (which must include the root's page), and
 /// says whether it winds inward (as given, or guessed from the part).
+/// A page as the part found it, and the nodes of it the part uses: what the cache may keep of it.
+type Kept = (u32, Arc<DecodedPage>, Arc<DecodedPage>);
+
+/// Per page the part uses only some nodes of, the page and those nodes.
+fn kept_of(pages: &[(u32, Arc<DecodedPage>)], walk: &Walk) -> Vec<Kept> {
+    let mut used: Vec<Vec<usize>> = vec![Vec::new(); pages.len()];
+    for &(s, i) in walk.leaves.iter().chain(&walk.internal) {
+        used[s].push(i);
+    }
+    (pages.iter().zip(used))
+        .filter(|((_, page), used)| used.len() < page.ids.len())
+        .map(|((p, page), mut used)| {
+            used.sort_unstable();
+            (*p, page.clone(), Arc::new(page.keep(&used)))
+        })
+        .collect()
+}
+
 fn build_part(
     meta: &Meta,
     pages: &[(u32, Arc<DecodedPage>)],
     trim: Option<&Trim>,
-) -> Option<(Part, bool)> {
+) -> Option<(Part, bool, Vec<Kept>)> {
     let walk = walk(meta, pages, trim)?;
+    let kept = match trim {
+        Some(_) => kept_of(pages, &walk),
+        None => Vec::new(),
+    };
     let (tree, page_of_tree, leaf_first) = assemble(meta, pages, &walk);
     let renumber = Hierarchy::renumbering(&tree);
     let inward = meta.inward.unwrap_or_else(|| tree.winds_inward());
@@ -466,6 +493,7 @@ fn build_part(
             page_nodes,
         },
         inward,
+        kept,
     ))
 }
 
@@ -511,7 +539,7 @@ fn first_pages(
 }
 
 /// A part being built on another thread, with the front it will start from.
-type Building = Receiver<Option<(Part, Refiner)>>;
+type Building = Receiver<Option<(Part, Refiner, Vec<Kept>)>>;
 
 /// A tree flown from its file: the part read so far, the runtime over it, and the cache that
 /// reads the rest (see the module's text).
@@ -625,7 +653,7 @@ impl Streamed {
             }),
         };
         let pages = first_pages(&file, &meta.page_of_root, root_page, root);
-        let (part, inward) = build_part(&meta, &pages, None).ok_or_else(|| {
+        let (part, inward, _) = build_part(&meta, &pages, None).ok_or_else(|| {
             StreamError::Root(name, "the root's page does not hold the root".into())
         })?;
         meta.inward = Some(inward);
@@ -650,7 +678,7 @@ impl Streamed {
             failures: Vec::new(),
             parts: 1,
         };
-        streamed.loaded_then = streamed.cache.stats().loaded;
+        streamed.loaded_then = streamed.cache.stats().loaded + streamed.cache.stats().rereads;
         Ok(streamed)
     }
 
@@ -776,8 +804,13 @@ impl Streamed {
                 self.building = None;
                 false
             }
-            Ok(Some((part, refiner))) => {
+            Ok(Some((part, refiner, kept))) => {
                 self.building = None;
+                // The cache keeps of each page what the part uses; the rest is read again
+                // when the view wants it.
+                for (p, was, kept) in kept {
+                    self.cache.keep_only(p, &was, kept);
+                }
                 self.arrived.append(&mut self.arriving);
                 self.taken = true;
                 self.part = part;
@@ -790,7 +823,7 @@ impl Streamed {
 
     /// Begins building a new part when pages have arrived since the last one began.
     fn begin_part(&mut self) {
-        let loaded = self.cache.stats().loaded;
+        let loaded = self.cache.stats().loaded + self.cache.stats().rereads;
         if self.building.is_some() || (loaded == self.loaded_then && !self.stale) {
             return;
         }
@@ -826,11 +859,11 @@ impl Streamed {
         std::thread::Builder::new()
             .name("vunify-part".into())
             .spawn(move || {
-                let built = build_part(&meta, &pages, trim.as_ref()).map(|(part, _)| {
+                let built = build_part(&meta, &pages, trim.as_ref()).map(|(part, _, kept)| {
                     let at = part.cut_at(&cut);
                     let front = Front::at_cut(&part.h, &at).expect("a cut of the part");
                     let refiner = Refiner::starting_from(&part.h, front, settings);
-                    (part, refiner)
+                    (part, refiner, kept)
                 });
                 let _ = send.send(built);
             })
@@ -852,8 +885,14 @@ impl Streamed {
                 if px > tau {
                     let wants = s.wants.into_iter().filter(|&p| p != NONE);
                     // All there: the next part splits it (a page that cannot be read never is).
-                    self.stale |= wants.clone().all(|p| self.cache.is_resident(p));
-                    wanted.extend(wants.map(|p| (p, px)));
+                    self.stale |= wants.clone().all(|p| self.cache.is_whole(p));
+                    for p in wants {
+                        if self.cache.is_resident(p) && !self.cache.is_whole(p) {
+                            self.cache.reread(p, px);
+                        } else {
+                            wanted.push((p, px));
+                        }
+                    }
                 }
             }
         }

@@ -28,6 +28,43 @@ pub struct DecodedPage {
 }
 
 impl DecodedPage {
+    /// The page with only the nodes at the indices `keep` holds (in increasing order), each
+    /// with its triangles, leaves and turn: what a reader that needs only part of a page keeps.
+    pub fn keep(&self, keep: &[usize]) -> DecodedPage {
+        // Internal nodes have the greatest ids, and each a count: they are the page's last.
+        let internal_from = self.ids.len() - self.counts.len();
+        let mut start = Vec::with_capacity(self.counts.len() + 1);
+        start.push(0usize);
+        for &c in &self.counts {
+            start.push(start.last().copied().unwrap_or(0) + c as usize);
+        }
+        let mut out = DecodedPage {
+            ids: Vec::with_capacity(keep.len()),
+            nodes: Vec::with_capacity(keep.len()),
+            counts: Vec::new(),
+            triangles: Vec::new(),
+            leaves: Vec::new(),
+            turns: Vec::new(),
+        };
+        for &i in keep {
+            out.ids.push(self.ids[i]);
+            out.nodes.push(self.nodes[i]);
+            if let Some(&l) = self.leaves.get(i) {
+                out.leaves.push(l);
+            }
+            if let Some(&t) = self.turns.get(i) {
+                out.turns.push(t);
+            }
+            if i >= internal_from {
+                let k = i - internal_from;
+                out.counts.push(self.counts[k]);
+                out.triangles
+                    .extend_from_slice(&self.triangles[start[k]..start[k + 1]]);
+            }
+        }
+        out
+    }
+
     /// The bytes its arrays hold, as a cache counts them against its budget.
     pub fn bytes(&self) -> u64 {
         (self.ids.len() * 4
