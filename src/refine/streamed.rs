@@ -189,6 +189,8 @@ struct Walk {
     stand_in: Vec<Option<[u32; 2]>>,
     /// Per leaf, how far normals turn below it (0 for a leaf of the whole tree).
     turn: Vec<f32>,
+    /// Nodes below the part that the cache keeps (see [`Trim::keeps`]).
+    cached: Vec<At>,
 }
 
 /// How far normals turn below node `i` of `page`: as the page records it (version 6), else
@@ -218,7 +220,18 @@ struct Trim {
 /// closer before the front needs a new part to refine further.
 const TRIM_MARGIN: f32 = 4.0;
 
+/// How much finer again the cache keeps the nodes of the pages it has read: the camera may come
+/// this many times closer still before a page is read again.
+const KEEP_MARGIN: f32 = 2.0;
+
 impl Trim {
+    /// Whether the cache keeps the children of `node`, below the part.
+    fn keeps(&self, node: &Node, turn: f32) -> bool {
+        let bounds = stand_in_bounds(node, turn, self.inward);
+        let n = self.tests.view_of(&bounds, node.position());
+        self.tests.projected(&self.view, &n) > self.tau / KEEP_MARGIN
+    }
+
     /// Whether the part takes in the children of `node`, whose leaves are `leaves`.
     fn expands(&self, node: &Node, turn: f32, leaves: [u32; 2]) -> bool {
         // Above the front: the front node holding its first leaf is smaller than it.
@@ -258,6 +271,7 @@ fn walk(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)], trim: Option<&Trim>) -> 
         internal: Vec::new(),
         stand_in: Vec::new(),
         turn: Vec::new(),
+        cached: Vec::new(),
     };
     let mut stack = vec![find(root, root_slot)?];
     while let Some((s, i)) = stack.pop() {
@@ -277,6 +291,17 @@ fn walk(meta: &Meta, pages: &[(u32, Arc<DecodedPage>)], trim: Option<&Trim>) -> 
             stack.push(c1);
             stack.push(c0);
         } else {
+            if let Some(t) = trim {
+                // Left out for now, but what the camera nearing would want soon stays cached.
+                let mut below: Vec<At> = found.into_iter().flatten().collect();
+                while let Some((s, i)) = below.pop() {
+                    out.cached.push((s, i));
+                    let (node, page) = (&pages[s].1.nodes[i], &pages[s].1);
+                    if page.ids[i] >= meta.leaf_count && t.keeps(node, turn_at(page, i)) {
+                        below.extend(node.children.iter().filter_map(|&c| find(c, s)));
+                    }
+                }
+            }
             out.leaves.push((s, i));
             // The pages its children are in (read, or to be read; its own page when only
             // some of that page's nodes are kept).
@@ -429,13 +454,14 @@ type Kept = (u32, Arc<DecodedPage>, Arc<DecodedPage>);
 /// Per page the part uses only some nodes of, the page and those nodes.
 fn kept_of(pages: &[(u32, Arc<DecodedPage>)], walk: &Walk) -> Vec<Kept> {
     let mut used: Vec<Vec<usize>> = vec![Vec::new(); pages.len()];
-    for &(s, i) in walk.leaves.iter().chain(&walk.internal) {
+    for &(s, i) in walk.leaves.iter().chain(&walk.internal).chain(&walk.cached) {
         used[s].push(i);
     }
     (pages.iter().zip(used))
         .filter(|((_, page), used)| used.len() < page.ids.len())
         .map(|((p, page), mut used)| {
             used.sort_unstable();
+            used.dedup();
             (*p, page.clone(), Arc::new(page.keep(&used)))
         })
         .collect()

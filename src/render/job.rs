@@ -102,6 +102,8 @@ pub struct Summary {
     /// A streamed tree's pages read, and the parts of it the runtime took in (`None` for a tree
     /// read whole).
     pub pages_loaded: Option<u64>,
+    /// Pages of which only some nodes were kept, read whole again.
+    pub pages_reread: Option<u64>,
     pub parts: Option<u64>,
     /// Pages that could not be read, each once: the front stayed coarse there.
     pub page_errors: Vec<String>,
@@ -168,6 +170,7 @@ pub fn render_streamed(
     );
     let mut summary = render_frames(gpu, streamed, path, job, progress)?;
     summary.pages_loaded = Some(streamed.cache_stats().loaded);
+    summary.pages_reread = Some(streamed.cache_stats().rereads);
     summary.parts = Some(streamed.parts);
     Ok(summary)
 }
