@@ -132,14 +132,19 @@ impl PageCache {
     /// A cache of `source`'s pages within `budget` bytes (pinned pages may hold more), with its
     /// reader thread started.
     pub fn new(source: Arc<dyn PageSource>, budget: u64) -> PageCache {
+        PageCache::with_readers(source, budget, 1)
+    }
+
+    /// [`PageCache::new`] with `readers` threads reading (and decoding, which is most of a read)
+    /// at once, each taking the most wanted page left: what a streaming front uses, one a core.
+    pub fn with_readers(source: Arc<dyn PageSource>, budget: u64, readers: usize) -> PageCache {
         let shared = Arc::new(Shared {
             queue: Mutex::new(Queue::default()),
             wake: Condvar::new(),
         });
         let (send, arrivals) = channel();
-        {
-            let shared = shared.clone();
-            let source = source.clone();
+        for _ in 0..readers.max(1) {
+            let (shared, source, send) = (shared.clone(), source.clone(), send.clone());
             // Never joined (see `Drop`): it ends when the cache is let go.
             std::thread::Builder::new()
                 .name("vunify-pages".into())

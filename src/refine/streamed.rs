@@ -684,7 +684,8 @@ impl Streamed {
         })?;
         meta.inward = Some(inward);
         let refiner = Refiner::new(&part.h, settings);
-        let mut cache = PageCache::new(source, budget);
+        let readers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let mut cache = PageCache::with_readers(source, budget, readers);
         for (p, page) in pages {
             cache.adopt(p, page);
         }
