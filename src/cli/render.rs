@@ -131,26 +131,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let tree = super::load_tree(&args.model)?;
     tree.check_viewable()
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
-    let path = match &args.path {
-        Some(p) => vunify::camera_path::CameraPath::load(p)?,
-        None => {
-            super::path::camera_path(super::path::PathKind::Orbit, tree.bounding_sphere(), 10.0)
-        }
-    };
+    let path = camera_path(&args, tree.bounding_sphere())?;
     let gpu = Gpu::headless()?;
     let job = render_job(&args, started);
     // The runtime reads the hierarchy only: the tree (1.4 GB at 14 M triangles) goes as it is
     // read, before the GPU's buffers are made.
     let h = Hierarchy::from_tree(tree);
-    if !args.json {
-        println!(
-            "rendering {} on {} at {}x{}",
-            args.model.display(),
-            gpu.adapter_name(),
-            args.size[0],
-            args.size[1]
-        );
-    }
+    announce(&args, &gpu, "");
     let summary = with_progress(|progress| job::render_path(&gpu, &h, &path, &job, progress))?;
     report(&args, &summary)
 }
@@ -164,24 +151,42 @@ fn run_streamed(args: RenderArgs, size: u64, started: std::time::Instant) -> Res
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     vunify::vtree::check_viewable_diagonal(streamed.hierarchy().diagonal)
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
-    let path = match &args.path {
-        Some(p) => vunify::camera_path::CameraPath::load(p)?,
-        None => super::path::camera_path(super::path::PathKind::Orbit, streamed.sphere(), 10.0),
-    };
+    let path = camera_path(&args, streamed.sphere())?;
     let gpu = Gpu::headless()?;
-    if !args.json {
-        println!(
-            "rendering {} on {} at {}x{}, streamed within {} MiB",
-            args.model.display(),
-            gpu.adapter_name(),
-            args.size[0],
-            args.size[1],
-            size >> 20
-        );
-    }
+    announce(
+        &args,
+        &gpu,
+        &format!(", streamed within {} MiB", size >> 20),
+    );
     let summary =
         with_progress(|progress| job::render_streamed(&gpu, &mut streamed, &path, &job, progress))?;
     report(&args, &summary)
+}
+
+/// The path `--path` names, or an orbit of the model's bounding `sphere`.
+#[cfg(feature = "render")]
+fn camera_path(
+    args: &RenderArgs,
+    sphere: (glam::Vec3, f32),
+) -> Result<vunify::camera_path::CameraPath> {
+    Ok(match &args.path {
+        Some(p) => vunify::camera_path::CameraPath::load(p)?,
+        None => super::path::camera_path(super::path::PathKind::Orbit, sphere, 10.0),
+    })
+}
+
+/// Says what is rendered where (unless the summary is to be JSON), with `how` after it.
+#[cfg(feature = "render")]
+fn announce(args: &RenderArgs, gpu: &vunify::render::Gpu, how: &str) {
+    if !args.json {
+        println!(
+            "rendering {} on {} at {}x{}{how}",
+            args.model.display(),
+            gpu.adapter_name(),
+            args.size[0],
+            args.size[1]
+        );
+    }
 }
 
 /// Runs `render` with a progress bar of its frames.

@@ -610,6 +610,25 @@ impl Keyed {
     }
 }
 
+/// Items grouped by their `group` (each below `groups`) with a counting sort, stable: where each
+/// group begins in the order (and one more at the end), and the items' indices in that order.
+pub(super) fn group_by(group: &[u32], groups: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; groups + 1];
+    for &g in group {
+        start[g as usize + 1] += 1;
+    }
+    for k in 0..groups {
+        start[k + 1] += start[k];
+    }
+    let mut next = start.clone();
+    let mut order = vec![0u32; group.len()];
+    for (t, &g) in group.iter().enumerate() {
+        order[next[g as usize] as usize] = t as u32;
+        next[g as usize] += 1;
+    }
+    (start, order)
+}
+
 /// Every triangle's `d(t)` in this numbering and its outside corner, and the triangles grouped by
 /// it with a counting sort (stable, so in index order within a group): 9 bytes a triangle, where
 /// sorting `(d, corners, index, corner)` records took 64 with the sort's buffer (at 14 M triangles
@@ -651,19 +670,7 @@ fn keyed_triangles(
             (d - n, outside)
         })
         .unzip();
-    let mut start = vec![0u32; lo.len() + 1];
-    for &g in &group {
-        start[g as usize + 1] += 1;
-    }
-    for k in 0..lo.len() {
-        start[k + 1] += start[k];
-    }
-    let mut next = start.clone();
-    let mut order = vec![0u32; group.len()];
-    for (t, &g) in group.iter().enumerate() {
-        order[next[g as usize] as usize] = t as u32;
-        next[g as usize] += 1;
-    }
+    let (start, order) = group_by(&group, lo.len());
     Keyed {
         start,
         order,
